@@ -1,0 +1,171 @@
+//! Heightfields: import from PNG and OpenEXR, and the world-space conventions of DESIGN.md.
+//!
+//! A heightfield is a grid of samples, row-major with row 0 first (`u` = column, `v` = row).
+//! Integer images are normalised to [0, 1] (8-bit by 255, 16-bit by 65535); float images are
+//! taken as they are. World height is `height_offset + height_scale × sample`, and a texel spans
+//! `texel_size = (sx, sy)` world units along `u` and `v`.
+//!
+//! Channel rule: a grayscale PNG gives its luma (alpha, if any, is ignored). A colour PNG is an
+//! error unless a channel (`R`, `G`, `B`) is named. An EXR gives the named channel, else `Y`,
+//! else `R`, else its only channel; with several channels and none of those, it is an error
+//! listing them. Only the first layer of a multi-layer EXR is read.
+
+mod exr;
+mod png;
+
+use std::path::Path;
+
+use hikage_bundle::{Supercompression, TextureData, TextureDesc, TextureDimension, TextureFormat};
+
+use crate::error::BakeError;
+
+/// Options for loading a heightfield image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadOptions {
+    /// Channel to take (`R`, `G`, `B`, `A`, `Y` or any EXR channel name); `None` applies the
+    /// module's channel rule.
+    pub channel: Option<String>,
+    /// Largest width or height accepted; checked from the file header before decoding.
+    pub max_dimension: u32,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        LoadOptions { channel: None, max_dimension: 16_384 }
+    }
+}
+
+/// A heightfield in memory with its world units.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Heightfield {
+    /// Samples along `u`.
+    pub width: u32,
+    /// Samples along `v`.
+    pub height: u32,
+    /// Row-major samples (row 0 first); normalised to [0, 1] when `normalized`.
+    pub samples: Vec<f32>,
+    /// World units per texel along `u` and `v`.
+    pub texel_size: (f32, f32),
+    /// World height = `height_offset + height_scale × sample`.
+    pub height_scale: f32,
+    /// See `height_scale`.
+    pub height_offset: f32,
+    /// True when the samples came from integers normalised to [0, 1].
+    pub normalized: bool,
+    /// The channel the samples came from.
+    pub source_channel: String,
+}
+
+impl Heightfield {
+    /// A heightfield from raw samples with unit texels, scale 1 and offset 0.
+    pub fn from_samples(width: u32, height: u32, samples: Vec<f32>) -> Heightfield {
+        assert_eq!(samples.len(), width as usize * height as usize, "sample count must be width × height");
+        Heightfield {
+            width,
+            height,
+            samples,
+            texel_size: (1.0, 1.0),
+            height_scale: 1.0,
+            height_offset: 0.0,
+            normalized: false,
+            source_channel: "generated".into(),
+        }
+    }
+
+    /// The sample at column `x`, row `y`.
+    pub fn sample(&self, x: u32, y: u32) -> f32 {
+        self.samples[y as usize * self.width as usize + x as usize]
+    }
+
+    /// World height at column `x`, row `y`.
+    pub fn world_height(&self, x: u32, y: u32) -> f32 {
+        self.height_offset + self.height_scale * self.sample(x, y)
+    }
+
+    /// The samples as a one-level 2D texture in `format` (R32Float or R16Float), channel
+    /// `height`.
+    pub fn to_texture(&self, format: TextureFormat) -> Result<TextureData, hikage_bundle::BundleError> {
+        let desc = TextureDesc {
+            format,
+            dimension: TextureDimension::D2,
+            width: self.width,
+            height: self.height,
+            depth: 1,
+            layers: 1,
+            levels: 1,
+            supercompression: Supercompression::None,
+            channels: vec!["height".into()],
+        };
+        TextureData::from_f32(desc, &self.samples)
+    }
+}
+
+/// Samples read from an image, before world units are attached.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Samples {
+    /// Columns.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+    /// Row-major values.
+    pub values: Vec<f32>,
+    /// True when integers were normalised to [0, 1].
+    pub normalized: bool,
+    /// The channel taken.
+    pub channel: String,
+}
+
+/// Loads samples from a PNG or EXR file (chosen by its first bytes, not its extension) and
+/// checks that every sample is finite.
+pub fn load_samples(path: &Path, options: &LoadOptions) -> Result<Samples, BakeError> {
+    let mut magic = [0u8; 8];
+    {
+        use std::io::Read;
+        let mut f = std::fs::File::open(path).map_err(|e| BakeError::io(path, e))?;
+        let n = f.read(&mut magic).map_err(|e| BakeError::io(path, e))?;
+        if n < 4 {
+            return Err(BakeError::input(path, None, format!("expected a PNG or EXR image, found a {n}-byte file")));
+        }
+    }
+    let samples = if magic.starts_with(&[0x89, b'P', b'N', b'G']) {
+        png::load(path, options)?
+    } else if magic.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+        exr::load(path, options)?
+    } else {
+        return Err(BakeError::input(
+            path,
+            Some("byte 0".into()),
+            "expected a PNG or OpenEXR signature; other formats are not read",
+        ));
+    };
+    if let Some(i) = samples.values.iter().position(|v| !v.is_finite()) {
+        let (x, y) = (i % samples.width as usize, i / samples.width as usize);
+        return Err(BakeError::input(
+            path,
+            Some(format!("pixel ({x}, {y}) channel {}", samples.channel)),
+            format!("expected a finite height, found {}", samples.values[i]),
+        ));
+    }
+    Ok(samples)
+}
+
+/// Refuses zero or over-limit dimensions; called with the header's size before decoding.
+pub(crate) fn check_dimensions(path: &Path, width: u64, height: u64, max: u32) -> Result<(), BakeError> {
+    if width == 0 || height == 0 {
+        return Err(BakeError::input(
+            path,
+            Some("header".into()),
+            format!("expected a non-empty image, found {width}×{height}"),
+        ));
+    }
+    let largest = width.max(height);
+    if largest > max as u64 {
+        return Err(BakeError::Limit {
+            path: path.to_path_buf(),
+            what: format!("image dimension ({width}×{height})"),
+            value: largest,
+            limit: max as u64,
+        });
+    }
+    Ok(())
+}

@@ -1,0 +1,33 @@
+//! hikage-bake: turns source assets into bundle payloads.
+//!
+//! - [`heightfield`] imports PNG (8/16-bit) and OpenEXR (f16/f32) heightfields with their world
+//!   units (texel size, height scale and offset; DESIGN.md "World units").
+//! - [`pipeline`] parses `pipeline.ron`: the output bundle and a list of jobs.
+//! - [`run`] runs a pipeline incrementally: a job whose input hash (input bytes, canonical
+//!   settings, baker algorithm version) matches the existing asset is skipped, and the bundle
+//!   is replaced atomically. [`run::run_for_build_script`] is the one call a `build.rs` needs.
+//! - [`export`] writes a texture asset back out as EXR or raw little-endian f32.
+//! - [`synth`] holds the procedural generators that make the sample data in `data/` and the
+//!   test inputs (tileable bump maps, rough terrain, relief test families).
+//!
+//! The library never prints (except the `cargo:` lines a build script asks for); progress goes
+//! to an [`run::Observer`].
+//!
+//! ```no_run
+//! // build.rs
+//! hikage_bake::run::run_for_build_script("assets/pipeline.ron".as_ref()).unwrap();
+//! ```
+
+mod error;
+pub mod export;
+mod hash;
+pub mod heightfield;
+pub mod jobs;
+pub mod pipeline;
+pub mod run;
+pub mod synth;
+
+pub use error::BakeError;
+pub use heightfield::{Heightfield, LoadOptions};
+pub use pipeline::{Job, Pipeline};
+pub use run::{Observer, RunOptions, RunReport, run_pipeline};

@@ -1,0 +1,173 @@
+//! `pipeline.ron`: where the bundle goes and the jobs that fill it.
+//!
+//! ```ron
+//! (
+//!     output: "bundle",                 // relative to the pipeline file's directory
+//!     limits: (max_dimension: 16384),   // optional
+//!     jobs: [
+//!         Heightfield(id: "terrain", input: "data/terrain.png", texel_size: (80, 80), height_scale: 1200),
+//!     ],
+//! )
+//! ```
+//!
+//! Unknown fields are errors (a typo must not silently fall back to a default). Paths are
+//! relative to the directory holding the pipeline file.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::BakeError;
+pub use crate::jobs::heightfield::{HeightFormat, HeightfieldJob};
+
+/// A parsed pipeline file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Pipeline {
+    /// Output bundle directory.
+    pub output: PathBuf,
+    /// Limits applied to inputs before they are decoded.
+    #[serde(default)]
+    pub limits: InputLimits,
+    /// The jobs, baked in order.
+    pub jobs: Vec<Job>,
+}
+
+/// Limits applied to input files before decoding them.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InputLimits {
+    /// Largest image width or height.
+    #[serde(default = "default_max_dimension")]
+    pub max_dimension: u32,
+}
+
+fn default_max_dimension() -> u32 {
+    16_384
+}
+
+impl Default for InputLimits {
+    fn default() -> Self {
+        InputLimits { max_dimension: default_max_dimension() }
+    }
+}
+
+/// One job of a pipeline. The variant names the baker.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Job {
+    /// Import a heightfield image as a `heightfield` asset.
+    Heightfield(HeightfieldJob),
+}
+
+/// A pipeline with the file it came from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadedPipeline {
+    /// The pipeline file.
+    pub path: PathBuf,
+    /// Directory that relative paths are resolved against.
+    pub base_dir: PathBuf,
+    /// The parsed content.
+    pub pipeline: Pipeline,
+}
+
+impl LoadedPipeline {
+    /// The output bundle directory, resolved.
+    pub fn output_dir(&self) -> PathBuf {
+        self.base_dir.join(&self.pipeline.output)
+    }
+
+    /// Resolves a path written in the pipeline.
+    pub fn resolve(&self, p: &Path) -> PathBuf {
+        self.base_dir.join(p)
+    }
+}
+
+impl Pipeline {
+    /// Reads and parses a pipeline file, then checks every job's settings.
+    pub fn load(path: &Path) -> Result<LoadedPipeline, BakeError> {
+        let text = std::fs::read_to_string(path).map_err(|e| BakeError::io(path, e))?;
+        let pipeline = Pipeline::parse(&text, path)?;
+        let base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let loaded = LoadedPipeline { path: path.to_path_buf(), base_dir, pipeline };
+        loaded.pipeline.check(path)?;
+        Ok(loaded)
+    }
+
+    /// Parses pipeline text; `path` is used in error messages. Errors carry line and column.
+    pub fn parse(text: &str, path: &Path) -> Result<Pipeline, BakeError> {
+        ron::Options::default()
+            .with_default_extension(ron::extensions::Extensions::UNWRAP_VARIANT_NEWTYPES)
+            .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
+            .from_str::<Pipeline>(text)
+            .map_err(|e| BakeError::Pipeline {
+                path: path.to_path_buf(),
+                line: e.span.start.line,
+                col: e.span.start.col,
+                message: e.code.to_string(),
+            })
+    }
+
+    /// Checks settings: each job's ranges, and that no two jobs make the same asset id.
+    pub fn check(&self, path: &Path) -> Result<(), BakeError> {
+        let mut seen = std::collections::BTreeMap::new();
+        for job in &self.jobs {
+            job.check().map_err(|message| BakeError::Setting {
+                path: path.to_path_buf(),
+                job: job.id().to_string(),
+                message,
+            })?;
+            for out in job.outputs() {
+                if let Some(other) = seen.insert(out.clone(), job.id().to_string()) {
+                    return Err(BakeError::Setting {
+                        path: path.to_path_buf(),
+                        job: job.id().to_string(),
+                        message: format!("asset id `{out}` is also made by job `{other}`"),
+                    });
+                }
+            }
+        }
+        if self.limits.max_dimension == 0 {
+            return Err(BakeError::Setting {
+                path: path.to_path_buf(),
+                job: "limits".into(),
+                message: "max_dimension must be at least 1".into(),
+            });
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_defaults_and_reports_typos_with_position() {
+        let p = Pipeline::parse(
+            "(output: \"b\", jobs: [Heightfield(id: \"t\", input: \"t.png\", channel: \"R\")])",
+            Path::new("p.ron"),
+        )
+        .unwrap();
+        let Job::Heightfield(h) = &p.jobs[0];
+        assert_eq!(h.texel_size, (1.0, 1.0));
+        assert_eq!(h.channel.as_deref(), Some("R"));
+
+        let err = Pipeline::parse(
+            "(\n output: \"b\",\n jobs: [Heightfield(id: \"t\", input: \"t.png\", hieght_scale: 2)],\n)",
+            Path::new("p.ron"),
+        )
+        .unwrap_err();
+        match err {
+            BakeError::Pipeline { line, message, .. } => {
+                assert_eq!(line, 3);
+                assert!(message.contains("hieght_scale"), "{message}");
+            }
+            e => panic!("{e}"),
+        }
+        let err = Pipeline::parse(
+            "(output: \"b\", jobs: [Heightfield(id: \"t\", input: \"t.png\", height_scale: \"x\")])",
+            Path::new("p.ron"),
+        );
+        assert!(matches!(err, Err(BakeError::Pipeline { line: 1, .. })));
+    }
+}

@@ -1,0 +1,161 @@
+//! Running a pipeline: incremental, transactional, observable.
+//!
+//! For each job in order: hash its inputs and settings; when every asset it makes is in the
+//! existing bundle with that input hash and an intact payload, keep them (skipped); otherwise
+//! bake. The bundle is replaced only after every job succeeded (see
+//! [`hikage_bundle::BundleWriter`]); on any error the previous bundle stays as it was.
+
+use std::path::{Path, PathBuf};
+
+use hikage_bundle::{BundleWriter, WriteMode};
+
+use crate::error::BakeError;
+use crate::jobs::{BakedPayload, JobContext};
+use crate::pipeline::{LoadedPipeline, Pipeline};
+
+/// Receives progress while a pipeline runs. Implementations must be cheap: `progress` may be
+/// called often and from worker threads.
+pub trait Observer: Sync {
+    /// A job is about to be hashed and baked or skipped.
+    fn job_started(&self, _index: usize, _total: usize, _id: &str, _kind: &str) {}
+    /// Units of work done out of `total` for the current job.
+    fn progress(&self, _id: &str, _done: u64, _total: u64) {}
+    /// A job ended; `skipped` when its assets were reused.
+    fn job_finished(&self, _id: &str, _skipped: bool) {}
+}
+
+/// An observer that ignores everything.
+pub struct Silent;
+impl Observer for Silent {}
+
+/// How to run a pipeline.
+pub struct RunOptions<'a> {
+    /// Bake every job even when its input hash matches, and replace an unreadable bundle.
+    pub force: bool,
+    /// Worker threads (`None`: one per core). Outputs are identical for any value.
+    pub threads: Option<usize>,
+    /// Progress receiver.
+    pub observer: &'a dyn Observer,
+}
+
+impl Default for RunOptions<'_> {
+    fn default() -> Self {
+        RunOptions { force: false, threads: None, observer: &Silent }
+    }
+}
+
+/// What a run did.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct RunReport {
+    /// The bundle directory.
+    pub bundle: PathBuf,
+    /// Jobs baked.
+    pub baked: Vec<String>,
+    /// Jobs skipped because their inputs had not changed.
+    pub skipped: Vec<String>,
+    /// Stale payload files removed.
+    pub removed: Vec<String>,
+    /// The pipeline file and every input file (for `cargo:rerun-if-changed`).
+    pub watched: Vec<PathBuf>,
+    /// True when `bundle.ron` was rewritten.
+    pub manifest_written: bool,
+}
+
+/// Runs the pipeline file at `path`.
+pub fn run_pipeline(path: &Path, options: &RunOptions) -> Result<RunReport, BakeError> {
+    let loaded = Pipeline::load(path)?;
+    with_threads(options.threads, || run_loaded(&loaded, options))
+}
+
+/// Runs `f` on a rayon pool of `threads` workers (or the global pool).
+pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> T {
+    match threads {
+        Some(n) => match rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build() {
+            Ok(pool) => pool.install(f),
+            Err(_) => f(),
+        },
+        None => f(),
+    }
+}
+
+/// Runs an already loaded pipeline on the current rayon pool.
+pub fn run_loaded(loaded: &LoadedPipeline, options: &RunOptions) -> Result<RunReport, BakeError> {
+    let out = loaded.output_dir();
+    let mut writer = if options.force {
+        BundleWriter::open_ignoring_previous(&out, WriteMode::Replace)?
+    } else {
+        BundleWriter::open(&out, WriteMode::Replace)?
+    };
+    let mut report = RunReport { bundle: out.clone(), ..Default::default() };
+    report.watched.push(loaded.path.clone());
+    let total = loaded.pipeline.jobs.len();
+    for (index, job) in loaded.pipeline.jobs.iter().enumerate() {
+        let id = job.id().to_string();
+        options.observer.job_started(index, total, &id, job.kind());
+        report.watched.extend(job.inputs(&loaded.base_dir));
+        let hash = job.input_hash(&loaded.base_dir)?;
+
+        let reusable: Option<Vec<_>> =
+            if options.force { None } else { job.outputs().iter().map(|o| writer.reusable(o, &hash)).collect() };
+        if let Some(assets) = reusable {
+            for a in assets {
+                writer.keep(a);
+            }
+            report.skipped.push(id.clone());
+            options.observer.job_finished(&id, true);
+            continue;
+        }
+
+        let progress = |done: u64, all: u64| options.observer.progress(&id, done, all);
+        let ctx = JobContext { base_dir: &loaded.base_dir, limits: &loaded.pipeline.limits, progress: &progress };
+        for asset in job.bake(&ctx)? {
+            match &asset.payload {
+                BakedPayload::Texture(t) => writer.put_texture(&asset.id, asset.kind, asset.settings, &hash, t)?,
+                BakedPayload::Mesh(m) => writer.put_mesh(&asset.id, asset.kind, asset.settings, &hash, m)?,
+            };
+        }
+        report.baked.push(id.clone());
+        options.observer.job_finished(&id, false);
+    }
+    let summary = writer.commit()?;
+    report.removed = summary.removed;
+    report.manifest_written = summary.manifest_written;
+    Ok(report)
+}
+
+/// What `validate PIPELINE` found: the jobs and inputs it checked.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct PipelineCheck {
+    /// Job ids checked.
+    pub jobs: Vec<String>,
+    /// Input files opened and decoded.
+    pub inputs: Vec<PathBuf>,
+}
+
+/// Checks a pipeline without baking: it parses, every setting is valid, and every input opens
+/// and decodes.
+pub fn check_pipeline(path: &Path, observer: &dyn Observer) -> Result<PipelineCheck, BakeError> {
+    let loaded = Pipeline::load(path)?;
+    let mut check = PipelineCheck::default();
+    let total = loaded.pipeline.jobs.len();
+    for (index, job) in loaded.pipeline.jobs.iter().enumerate() {
+        observer.job_started(index, total, job.id(), job.kind());
+        let progress = |_: u64, _: u64| {};
+        let ctx = JobContext { base_dir: &loaded.base_dir, limits: &loaded.pipeline.limits, progress: &progress };
+        job.check_inputs(&ctx)?;
+        check.jobs.push(job.id().to_string());
+        check.inputs.extend(job.inputs(&loaded.base_dir));
+        observer.job_finished(job.id(), false);
+    }
+    Ok(check)
+}
+
+/// The one call a `build.rs` needs: runs the pipeline and prints `cargo:rerun-if-changed=` for
+/// the pipeline file and every input, so Cargo re-runs the build script when one changes.
+pub fn run_for_build_script(path: &Path) -> Result<RunReport, BakeError> {
+    let report = run_pipeline(path, &RunOptions::default())?;
+    for p in &report.watched {
+        println!("cargo:rerun-if-changed={}", p.display());
+    }
+    Ok(report)
+}

@@ -1,0 +1,240 @@
+//! Opening a bundle and reading its payloads with sizes and hashes checked.
+
+use std::fs;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use crate::error::BundleError;
+use crate::limits::Limits;
+use crate::manifest::{Asset, AssetKind, MANIFEST_FILE, Manifest, Payload, Settings};
+use crate::mesh::MeshData;
+use crate::names::{is_safe_file_name, is_valid_asset_id};
+use crate::texture::{TextureData, TextureDimension};
+
+/// An opened bundle: its directory and parsed, structurally checked manifest.
+///
+/// Opening reads only `bundle.ron`; payloads are read on demand and each read checks the
+/// file's size and BLAKE3 against the manifest. Nothing here touches a GPU, so a game can open
+/// and decode a bundle on a worker thread.
+#[derive(Clone, Debug)]
+pub struct Bundle {
+    dir: PathBuf,
+    manifest: Manifest,
+    limits: Limits,
+}
+
+impl Bundle {
+    /// Opens the bundle in `dir` with the default [`Limits`].
+    pub fn open(dir: &Path) -> Result<Bundle, BundleError> {
+        Bundle::open_with_limits(dir, Limits::default())
+    }
+
+    /// Opens the bundle in `dir`: reads `bundle.ron` (refusing one larger than
+    /// `limits.max_manifest_bytes` before reading it), refuses an unknown major version, and
+    /// checks ids, file names and payload descriptions.
+    pub fn open_with_limits(dir: &Path, limits: Limits) -> Result<Bundle, BundleError> {
+        let path = dir.join(MANIFEST_FILE);
+        let text = read_limited(&path, limits.max_manifest_bytes, "manifest size")?;
+        let text = String::from_utf8(text).map_err(|e| BundleError::ManifestSyntax {
+            path: path.clone(),
+            line: 1,
+            col: 1,
+            message: format!("expected UTF-8 text: {e}"),
+        })?;
+        let manifest = Manifest::parse(&text, &path)?;
+        if manifest.assets.len() > limits.max_assets {
+            return Err(BundleError::Limit {
+                path,
+                what: "asset count".into(),
+                value: manifest.assets.len() as u64,
+                limit: limits.max_assets as u64,
+            });
+        }
+        if let Some((asset, message)) = manifest_problems(&manifest, &limits).into_iter().next() {
+            return Err(BundleError::InvalidAsset { path, asset, message });
+        }
+        Ok(Bundle { dir: dir.to_path_buf(), manifest, limits })
+    }
+
+    /// The bundle directory.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// The parsed manifest.
+    pub fn manifest(&self) -> &Manifest {
+        &self.manifest
+    }
+
+    /// The limits this bundle was opened with.
+    pub fn limits(&self) -> &Limits {
+        &self.limits
+    }
+
+    /// The asset with this id, or an error listing the ids that exist.
+    pub fn asset(&self, id: &str) -> Result<&Asset, BundleError> {
+        self.manifest.asset(id).ok_or_else(|| BundleError::Lookup {
+            path: self.dir.join(MANIFEST_FILE),
+            message: format!(
+                "no asset `{id}`; the bundle has: {}",
+                self.manifest.assets.iter().map(|a| a.id.as_str()).collect::<Vec<_>>().join(", ")
+            ),
+        })
+    }
+
+    /// Path of an asset's payload file.
+    pub fn payload_path(&self, asset: &Asset) -> PathBuf {
+        self.dir.join(&asset.file)
+    }
+
+    /// Reads an asset's payload file, checking its size and BLAKE3 against the manifest.
+    pub fn read_payload(&self, asset: &Asset) -> Result<Vec<u8>, BundleError> {
+        let path = self.payload_path(asset);
+        let meta = fs::symlink_metadata(&path).map_err(|e| BundleError::io(&path, e))?;
+        let payload_err =
+            |message: String| BundleError::Payload { path: path.clone(), asset: asset.id.clone(), message };
+        if !meta.is_file() {
+            return Err(payload_err("expected a regular file (symlinks are refused)".into()));
+        }
+        if meta.len() != asset.byte_length {
+            return Err(payload_err(format!("file is {} bytes, the manifest says {}", meta.len(), asset.byte_length)));
+        }
+        let bytes = read_limited(&path, self.limits.max_payload_bytes, "payload size")?;
+        if bytes.len() as u64 != asset.byte_length {
+            return Err(payload_err(format!("file is {} bytes, the manifest says {}", bytes.len(), asset.byte_length)));
+        }
+        let hash = blake3::hash(&bytes).to_hex();
+        if hash.as_str() != asset.blake3 {
+            return Err(payload_err(format!(
+                "BLAKE3 is {hash}, the manifest says {} (the file was modified or corrupted)",
+                asset.blake3
+            )));
+        }
+        Ok(bytes)
+    }
+
+    /// Reads and decodes a texture asset; the KTX2 header must agree with the manifest.
+    pub fn read_texture(&self, id: &str) -> Result<TextureData, BundleError> {
+        let asset = self.asset(id)?;
+        let Payload::Texture(desc) = &asset.payload else {
+            return Err(self.not_a(asset, "texture"));
+        };
+        let bytes = self.read_payload(asset)?;
+        let path = self.payload_path(asset);
+        let mut tex = crate::ktx2_file::decode(&bytes, &path, &self.limits)?;
+        let mut declared = desc.clone();
+        declared.channels = tex.desc.channels.clone();
+        if declared != tex.desc {
+            return Err(BundleError::Payload {
+                path,
+                asset: asset.id.clone(),
+                message: format!("KTX2 header says {:?}, the manifest says {:?}", tex.desc, desc),
+            });
+        }
+        tex.desc = desc.clone();
+        Ok(tex)
+    }
+
+    /// Reads a mesh asset; accessors are checked against the payload.
+    pub fn read_mesh(&self, id: &str) -> Result<MeshData, BundleError> {
+        let asset = self.asset(id)?;
+        let Payload::Mesh(desc) = &asset.payload else {
+            return Err(self.not_a(asset, "mesh"));
+        };
+        let bytes = self.read_payload(asset)?;
+        desc.check(bytes.len() as u64).map_err(|message| BundleError::Payload {
+            path: self.payload_path(asset),
+            asset: asset.id.clone(),
+            message,
+        })?;
+        Ok(MeshData { desc: desc.clone(), bytes })
+    }
+
+    fn not_a(&self, asset: &Asset, what: &str) -> BundleError {
+        BundleError::Lookup {
+            path: self.dir.join(MANIFEST_FILE),
+            message: format!("asset `{}` is a {}, not a {what}", asset.id, asset.kind.name()),
+        }
+    }
+}
+
+/// Reads a file, refusing it before reading when it is larger than `limit`.
+pub(crate) fn read_limited(path: &Path, limit: u64, what: &str) -> Result<Vec<u8>, BundleError> {
+    let file = fs::File::open(path).map_err(|e| BundleError::io(path, e))?;
+    let len = file.metadata().map_err(|e| BundleError::io(path, e))?.len();
+    if len > limit {
+        return Err(BundleError::Limit { path: path.to_path_buf(), what: what.into(), value: len, limit });
+    }
+    let mut bytes = Vec::with_capacity(len as usize);
+    file.take(limit + 1).read_to_end(&mut bytes).map_err(|e| BundleError::io(path, e))?;
+    if bytes.len() as u64 > limit {
+        return Err(BundleError::Limit {
+            path: path.to_path_buf(),
+            what: what.into(),
+            value: bytes.len() as u64,
+            limit,
+        });
+    }
+    Ok(bytes)
+}
+
+/// Problems visible from the manifest alone: ids, file names, duplicates, descriptions,
+/// kind/payload/settings agreement. Returns `(asset, message)` pairs.
+pub(crate) fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(String, String)> {
+    let mut problems = Vec::new();
+    let mut ids = std::collections::BTreeSet::new();
+    let mut files = std::collections::BTreeSet::new();
+    for (i, a) in manifest.assets.iter().enumerate() {
+        let name = if a.id.is_empty() { format!("#{i}") } else { a.id.clone() };
+        let mut bad = |m: String| problems.push((name.clone(), m));
+        if !is_valid_asset_id(&a.id) {
+            bad(format!("id {:?} is not valid: expected 1–128 of A–Z a–z 0–9 _ - . not starting with .", a.id));
+        }
+        if !ids.insert(a.id.clone()) {
+            bad("duplicate asset id".into());
+        }
+        if !is_safe_file_name(&a.file) {
+            bad(format!(
+                "file {:?} is not a plain file name inside the bundle directory (no separators, no .., not absolute)",
+                a.file
+            ));
+        } else if !files.insert(a.file.clone()) {
+            bad(format!("file {:?} is used by two assets", a.file));
+        }
+        if a.blake3.len() != 64 || !a.blake3.bytes().all(|b| b.is_ascii_hexdigit()) {
+            bad(format!("blake3 {:?} is not 64 hex digits", a.blake3));
+        }
+        if a.byte_length > limits.max_payload_bytes {
+            bad(format!("byte_length {} is above the limit of {}", a.byte_length, limits.max_payload_bytes));
+        }
+        match (&a.payload, a.kind) {
+            (Payload::Texture(t), AssetKind::Heightfield | AssetKind::Texture) => {
+                if let Err(m) = t.check(limits) {
+                    bad(m);
+                }
+                if a.kind == AssetKind::Heightfield && (t.dimension != TextureDimension::D2 || t.format.channels() != 1)
+                {
+                    bad("a heightfield must be a one-channel D2 texture".into());
+                }
+            }
+            (Payload::Mesh(_), AssetKind::Mesh) => {}
+            (_, kind) => bad(format!("kind {} does not match its payload type", kind.name())),
+        }
+        match (&a.settings, a.kind) {
+            (Settings::Heightfield(h), AssetKind::Heightfield) => {
+                let (sx, sy) = h.texel_size;
+                if !(sx.is_finite() && sy.is_finite() && sx > 0.0 && sy > 0.0) {
+                    bad(format!("texel_size ({sx}, {sy}) must be finite and positive"));
+                }
+                if !(h.height_scale.is_finite() && h.height_offset.is_finite()) {
+                    bad("height_scale and height_offset must be finite".into());
+                }
+            }
+            (Settings::Heightfield(_), kind) | (Settings::Generic, kind @ AssetKind::Heightfield) => {
+                bad(format!("settings do not match kind {}", kind.name()));
+            }
+            (Settings::Generic, _) => {}
+        }
+    }
+    problems
+}

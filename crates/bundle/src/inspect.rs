@@ -1,0 +1,93 @@
+//! A flat, serialisable summary of a bundle for `hikage inspect`.
+
+use serde::Serialize;
+
+use crate::manifest::{Manifest, Payload, Settings};
+
+/// One asset as `hikage inspect` shows it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct AssetSummary {
+    /// Asset id.
+    pub id: String,
+    /// Kind name (`heightfield`, `texture`, `mesh`, …).
+    pub kind: String,
+    /// Payload file.
+    pub file: String,
+    /// Payload bytes on disk.
+    pub byte_length: u64,
+    /// Texel format (`R32Float`, …) or `mesh`.
+    pub format: String,
+    /// `[width, height, depth, layers]` for textures, `[vertices, indices]` for meshes.
+    pub dimensions: Vec<u64>,
+    /// Texture shape (`D2`, `D2Array`, `D3`) or `mesh`.
+    pub dimension: String,
+    /// Mip levels (textures) or 0.
+    pub levels: u32,
+    /// Channel names (textures) or attribute names (meshes).
+    pub channels: Vec<String>,
+    /// Vertex count (meshes) or 0.
+    pub vertex_count: u64,
+    /// Index count (meshes) or 0.
+    pub index_count: u64,
+    /// The settings the asset was baked with, as RON.
+    pub settings: String,
+}
+
+/// The whole summary.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Summary {
+    /// `major.minor`.
+    pub format: String,
+    /// Generator string.
+    pub generator: String,
+    /// One entry per asset, sorted by id.
+    pub assets: Vec<AssetSummary>,
+}
+
+/// Summarises a manifest.
+pub fn summarize(manifest: &Manifest) -> Summary {
+    let assets = manifest
+        .assets
+        .iter()
+        .map(|a| {
+            let settings = match &a.settings {
+                Settings::Generic => String::new(),
+                s => ron::to_string(s).unwrap_or_default(),
+            };
+            match &a.payload {
+                Payload::Texture(t) => AssetSummary {
+                    id: a.id.clone(),
+                    kind: a.kind.name().into(),
+                    file: a.file.clone(),
+                    byte_length: a.byte_length,
+                    format: format!("{:?}", t.format),
+                    dimensions: vec![t.width as u64, t.height as u64, t.depth as u64, t.layers as u64],
+                    dimension: format!("{:?}", t.dimension),
+                    levels: t.levels,
+                    channels: t.channels.clone(),
+                    vertex_count: 0,
+                    index_count: 0,
+                    settings,
+                },
+                Payload::Mesh(m) => {
+                    let indices = m.indices.as_ref().map_or(0, |i| i.count as u64);
+                    AssetSummary {
+                        id: a.id.clone(),
+                        kind: a.kind.name().into(),
+                        file: a.file.clone(),
+                        byte_length: a.byte_length,
+                        format: "mesh".into(),
+                        dimensions: vec![m.vertex_count as u64, indices],
+                        dimension: "mesh".into(),
+                        levels: 0,
+                        channels: m.attributes.iter().map(|x| x.name.clone()).collect(),
+                        vertex_count: m.vertex_count as u64,
+                        index_count: indices,
+                        settings,
+                    }
+                }
+            }
+        })
+        .collect();
+    Summary { format: manifest.format.to_string(), generator: manifest.generator.clone(), assets }
+}

@@ -1,0 +1,343 @@
+//! KTX2 files: a writer for the formats of [`TextureFormat`] and a reader built on the `ktx2`
+//! crate.
+//!
+//! The writer follows the KTX 2.0 specification (Khronos, 2020): the 80-byte header, the level
+//! index, a Khronos Basic Data Format Descriptor (colour model RGBSDA, linear transfer), the
+//! key/value data with a `KTXwriter` entry, then the levels from the smallest to the largest.
+//! Uncompressed levels are aligned to `lcm(texel size, 4)`; zstd-supercompressed levels
+//! (scheme 2) need no alignment. `bytesPlane0` stays the texel size even when supercompressed,
+//! as the Data Format specification recommends.
+
+use std::path::Path;
+
+use crate::error::BundleError;
+use crate::limits::Limits;
+use crate::texture::{Supercompression, TextureData, TextureDesc, TextureDimension, TextureFormat};
+
+/// The 12 identifier bytes every KTX2 file starts with.
+pub const IDENTIFIER: [u8; 12] = [0xAB, 0x4B, 0x54, 0x58, 0x20, 0x32, 0x30, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A];
+
+const HEADER_BYTES: usize = 80;
+const LEVEL_INDEX_BYTES: usize = 24;
+const SUPERCOMPRESSION_ZSTD: u32 = 2;
+
+/// Encodes `texture` as a KTX2 file, writing `writer` as the `KTXwriter` value.
+pub fn encode(texture: &TextureData, writer: &str) -> Result<Vec<u8>, BundleError> {
+    let desc = &texture.desc;
+    desc.check(&Limits::default()).map_err(|m| BundleError::InvalidData(format!("KTX2 writer: {m}")))?;
+    if texture.levels.len() != desc.levels as usize {
+        return Err(BundleError::InvalidData(format!(
+            "KTX2 writer: {} levels described, {} given",
+            desc.levels,
+            texture.levels.len()
+        )));
+    }
+    for (l, data) in texture.levels.iter().enumerate() {
+        let expected = desc.level_bytes(l as u32).unwrap_or(u64::MAX);
+        if data.len() as u64 != expected {
+            return Err(BundleError::InvalidData(format!(
+                "KTX2 writer: level {l} needs {expected} bytes, {} given",
+                data.len()
+            )));
+        }
+    }
+
+    // Stored (possibly compressed) level data.
+    let stored: Vec<Vec<u8>> = match desc.supercompression {
+        Supercompression::None => texture.levels.clone(),
+        Supercompression::Zstd => texture
+            .levels
+            .iter()
+            .map(|l| ruzstd::encoding::compress_to_vec(l.as_slice(), ruzstd::encoding::CompressionLevel::Fastest))
+            .collect(),
+    };
+
+    let dfd = data_format_descriptor(desc.format);
+    let kvd = key_value_data(&[("KTXwriter", writer)]);
+
+    // Section offsets: header, level index, DFD, KVD, then levels.
+    let level_count = desc.levels as usize;
+    let dfd_offset = HEADER_BYTES + LEVEL_INDEX_BYTES * level_count;
+    let kvd_offset = dfd_offset + dfd.len();
+    let mut end = kvd_offset + kvd.len();
+    let align = match desc.supercompression {
+        Supercompression::None => lcm(desc.format.texel_bytes(), 4),
+        Supercompression::Zstd => 1,
+    };
+    // Levels are stored smallest (highest index) first.
+    let mut offsets = vec![0usize; level_count];
+    for l in (0..level_count).rev() {
+        end = end.div_ceil(align) * align;
+        offsets[l] = end;
+        end += stored[l].len();
+    }
+
+    let mut out = Vec::with_capacity(end);
+    out.extend_from_slice(&IDENTIFIER);
+    let (pixel_depth, layer_count) = match desc.dimension {
+        TextureDimension::D2 => (0, 0),
+        TextureDimension::D2Array => (0, desc.layers),
+        TextureDimension::D3 => (desc.depth, 0),
+    };
+    let scheme = match desc.supercompression {
+        Supercompression::None => 0,
+        Supercompression::Zstd => SUPERCOMPRESSION_ZSTD,
+    };
+    for v in [
+        desc.format.vk_format(),
+        desc.format.channel_bytes() as u32,
+        desc.width,
+        desc.height,
+        pixel_depth,
+        layer_count,
+        1, // faceCount
+        desc.levels,
+        scheme,
+        dfd_offset as u32,
+        dfd.len() as u32,
+        kvd_offset as u32,
+        kvd.len() as u32,
+    ] {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    out.extend_from_slice(&0u64.to_le_bytes()); // sgdByteOffset
+    out.extend_from_slice(&0u64.to_le_bytes()); // sgdByteLength
+    for l in 0..level_count {
+        out.extend_from_slice(&(offsets[l] as u64).to_le_bytes());
+        out.extend_from_slice(&(stored[l].len() as u64).to_le_bytes());
+        out.extend_from_slice(&(texture.levels[l].len() as u64).to_le_bytes());
+    }
+    out.extend_from_slice(&dfd);
+    out.extend_from_slice(&kvd);
+    for l in (0..level_count).rev() {
+        out.resize(offsets[l], 0);
+        out.extend_from_slice(&stored[l]);
+    }
+    Ok(out)
+}
+
+/// The DFD section: its total size, then one Khronos Basic descriptor block with a sample per
+/// channel.
+fn data_format_descriptor(format: TextureFormat) -> Vec<u8> {
+    let channels = format.channels();
+    let bits = format.channel_bytes() * 8;
+    let block_size = 24 + 16 * channels;
+    let mut d = Vec::with_capacity(4 + block_size);
+    d.extend_from_slice(&((4 + block_size) as u32).to_le_bytes()); // dfdTotalSize
+    d.extend_from_slice(&0u32.to_le_bytes()); // vendorId 0 (Khronos), descriptorType 0 (basic)
+    d.extend_from_slice(&2u16.to_le_bytes()); // versionNumber
+    d.extend_from_slice(&(block_size as u16).to_le_bytes());
+    d.push(1); // colorModel: KHR_DF_MODEL_RGBSDA
+    d.push(1); // colorPrimaries: BT709
+    d.push(1); // transferFunction: LINEAR
+    d.push(0); // flags: alpha straight
+    d.extend_from_slice(&[0, 0, 0, 0]); // texelBlockDimension 1×1×1×1 (stored minus one)
+    let mut planes = [0u8; 8];
+    planes[0] = format.texel_bytes() as u8;
+    d.extend_from_slice(&planes);
+    let channel_ids: &[u8] = if channels == 4 { &[0, 1, 2, 15] } else { &[0, 1] }; // R, G, (B, A)
+    for (c, &id) in channel_ids.iter().enumerate().take(channels) {
+        d.extend_from_slice(&((c * bits) as u16).to_le_bytes()); // bitOffset
+        d.push((bits - 1) as u8); // bitLength (minus one)
+        let qualifiers = if format.is_float() { 0x80 | 0x40 } else { 0 }; // FLOAT | SIGNED
+        d.push(id | qualifiers);
+        d.extend_from_slice(&[0, 0, 0, 0]); // samplePosition
+        let (lower, upper) = match format.channel_bytes() {
+            1 => (0u32, 255u32),
+            _ => ((-1.0f32).to_bits(), 1.0f32.to_bits()),
+        };
+        d.extend_from_slice(&lower.to_le_bytes());
+        d.extend_from_slice(&upper.to_le_bytes());
+    }
+    d
+}
+
+/// Key/value data: each entry is its byte length, `key\0value\0`, padded to 4 bytes; entries
+/// sorted by key.
+fn key_value_data(entries: &[(&str, &str)]) -> Vec<u8> {
+    let mut sorted = entries.to_vec();
+    sorted.sort();
+    let mut out = Vec::new();
+    for (key, value) in sorted {
+        let len = key.len() + 1 + value.len() + 1;
+        out.extend_from_slice(&(len as u32).to_le_bytes());
+        out.extend_from_slice(key.as_bytes());
+        out.push(0);
+        out.extend_from_slice(value.as_bytes());
+        out.push(0);
+        out.resize(out.len().div_ceil(4) * 4, 0);
+    }
+    out
+}
+
+fn lcm(a: usize, b: usize) -> usize {
+    fn gcd(a: usize, b: usize) -> usize {
+        if b == 0 { a } else { gcd(b, a % b) }
+    }
+    a / gcd(a, b) * b
+}
+
+/// Reads the description a KTX2 file declares, without decompressing anything. `path` is only
+/// used in error messages.
+pub fn read_desc(bytes: &[u8], path: &Path, limits: &Limits) -> Result<TextureDesc, BundleError> {
+    let err = |message: String| BundleError::Ktx2 { path: path.to_path_buf(), message };
+    if bytes.len() < 12 || bytes[..12] != IDENTIFIER {
+        return Err(err("expected the KTX2 identifier «KTX 20» at byte 0".into()));
+    }
+    let reader = ktx2::Reader::new(bytes).map_err(|e| err(format!("malformed KTX2: {e}")))?;
+    let h = reader.header();
+    let vk = u32::from_le_bytes(bytes[12..16].try_into().expect("12 identifier + 4 bytes"));
+    let format = TextureFormat::from_vk_format(vk).ok_or_else(|| {
+        err(format!(
+            "header vkFormat {vk} is not one hikage reads (expected one of {})",
+            TextureFormat::ALL.map(|f| f.vk_format().to_string()).join(", ")
+        ))
+    })?;
+    if h.type_size != format.channel_bytes() as u32 {
+        return Err(err(format!(
+            "header typeSize is {}, expected {} for {format:?}",
+            h.type_size,
+            format.channel_bytes()
+        )));
+    }
+    if h.face_count != 1 {
+        return Err(err(format!("header faceCount is {}, expected 1", h.face_count)));
+    }
+    if h.pixel_height == 0 {
+        return Err(err("header pixelHeight is 0: 1D textures are not supported".into()));
+    }
+    let dimension = match (h.pixel_depth, h.layer_count) {
+        (0, 0) => TextureDimension::D2,
+        (0, _) => TextureDimension::D2Array,
+        (_, 0) => TextureDimension::D3,
+        _ => return Err(err("header has both pixelDepth and layerCount: 3D arrays are not supported".into())),
+    };
+    let supercompression = match bytes_u32(bytes, 44) {
+        0 => Supercompression::None,
+        SUPERCOMPRESSION_ZSTD => Supercompression::Zstd,
+        other => {
+            return Err(err(format!("header supercompressionScheme is {other}, expected 0 (none) or 2 (zstd)")));
+        }
+    };
+    let desc = TextureDesc {
+        format,
+        dimension,
+        width: h.pixel_width,
+        height: h.pixel_height,
+        depth: h.pixel_depth.max(1),
+        layers: h.layer_count.max(1),
+        levels: h.level_count.max(1),
+        supercompression,
+        channels: (0..format.channels()).map(|c| ["r", "g", "b", "a"][c].to_string()).collect(),
+    };
+    desc.check(limits).map_err(|m| err(format!("header: {m}")))?;
+    Ok(desc)
+}
+
+fn bytes_u32(bytes: &[u8], at: usize) -> u32 {
+    u32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"))
+}
+
+/// Decodes a KTX2 file into uncompressed levels. Every size is checked against the header and
+/// `limits` before memory is allocated for it.
+pub fn decode(bytes: &[u8], path: &Path, limits: &Limits) -> Result<TextureData, BundleError> {
+    let desc = read_desc(bytes, path, limits)?;
+    let err = |message: String| BundleError::Ktx2 { path: path.to_path_buf(), message };
+    let reader = ktx2::Reader::new(bytes).map_err(|e| err(format!("malformed KTX2: {e}")))?;
+    let mut levels = Vec::with_capacity(desc.levels as usize);
+    for (l, level) in reader.levels().enumerate() {
+        let expected = desc.level_bytes(l as u32).expect("checked by TextureDesc::check");
+        if level.uncompressed_byte_length != expected {
+            return Err(err(format!(
+                "level {l}: uncompressedByteLength is {}, expected {expected} from the header",
+                level.uncompressed_byte_length
+            )));
+        }
+        let data = match desc.supercompression {
+            Supercompression::None => {
+                if level.data.len() as u64 != expected {
+                    return Err(err(format!("level {l}: byteLength is {}, expected {expected}", level.data.len())));
+                }
+                level.data.to_vec()
+            }
+            Supercompression::Zstd => {
+                let mut out = vec![0u8; expected as usize];
+                let mut decoder = ruzstd::decoding::FrameDecoder::new();
+                let n = decoder
+                    .decode_all(level.data, &mut out)
+                    .map_err(|e| err(format!("level {l}: zstd data is corrupt: {e}")))?;
+                if n as u64 != expected {
+                    return Err(err(format!("level {l}: zstd data inflates to {n} bytes, expected {expected}")));
+                }
+                out
+            }
+        };
+        levels.push(data);
+    }
+    Ok(TextureData { desc, levels })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn desc(format: TextureFormat, dimension: TextureDimension, depth: u32, layers: u32) -> TextureDesc {
+        TextureDesc {
+            format,
+            dimension,
+            width: 5,
+            height: 3,
+            depth,
+            layers,
+            levels: 1,
+            supercompression: Supercompression::None,
+            channels: (0..format.channels()).map(|c| ["r", "g", "b", "a"][c].to_string()).collect(),
+        }
+    }
+
+    fn pattern(desc: &TextureDesc, level: u32) -> Vec<u8> {
+        (0..desc.level_bytes(level).unwrap()).map(|i| (i * 7 + level as u64) as u8).collect()
+    }
+
+    #[test]
+    fn round_trip_every_format_shape_and_compression() {
+        for format in TextureFormat::ALL {
+            for (dimension, depth, layers) in
+                [(TextureDimension::D2, 1, 1), (TextureDimension::D2Array, 1, 4), (TextureDimension::D3, 6, 1)]
+            {
+                for sc in [Supercompression::None, Supercompression::Zstd] {
+                    let mut d = desc(format, dimension, depth, layers);
+                    d.supercompression = sc;
+                    d.levels = 3;
+                    let levels = (0..3).map(|l| pattern(&d, l)).collect();
+                    let tex = TextureData { desc: d.clone(), levels };
+                    let bytes = encode(&tex, "test").unwrap();
+                    let back = decode(&bytes, Path::new("mem"), &Limits::default()).unwrap();
+                    assert_eq!(back.levels, tex.levels, "{format:?} {dimension:?} {sc:?}");
+                    assert_eq!(back.desc.format, format);
+                    assert_eq!(back.desc.dimension, dimension);
+                    assert_eq!((back.desc.depth, back.desc.layers, back.desc.levels), (depth, layers, 3));
+                    let reader = ktx2::Reader::new(&bytes[..]).unwrap();
+                    assert_eq!(reader.writer().map(|w| w.trim_end_matches('\0')), Some("test"));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn truncated_and_lying_files_are_refused() {
+        let d = desc(TextureFormat::R32Float, TextureDimension::D3, 4, 1);
+        let tex = TextureData { levels: vec![pattern(&d, 0)], desc: d };
+        let bytes = encode(&tex, "t").unwrap();
+        for cut in [0, 11, 40, 80, 150, bytes.len() - 1] {
+            assert!(decode(&bytes[..cut], Path::new("t.ktx2"), &Limits::default()).is_err(), "cut {cut}");
+        }
+        // A header claiming a huge 3D texture is refused before any allocation.
+        let mut lying = bytes.clone();
+        lying[20..24].copy_from_slice(&16384u32.to_le_bytes()); // pixelWidth
+        lying[24..28].copy_from_slice(&16384u32.to_le_bytes()); // pixelHeight
+        lying[28..32].copy_from_slice(&16384u32.to_le_bytes()); // pixelDepth
+        let e = decode(&lying, Path::new("t.ktx2"), &Limits::default()).unwrap_err().to_string();
+        assert!(e.contains("t.ktx2") && e.contains("limit"), "{e}");
+    }
+}

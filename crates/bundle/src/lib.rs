@@ -1,0 +1,51 @@
+//! The hikage bundle: a directory holding a `bundle.ron` manifest and the payload files it
+//! describes.
+//!
+//! A bundle is what the baker (`hikage-bake`) writes and what the runtime (`hikage-runtime`)
+//! loads. Everything here is plain data and file handling, with no GPU and no baker code, so a
+//! game links only this crate and the runtime.
+//!
+//! - [`Manifest`] is the schema of `bundle.ron`: a format version ([`FormatVersion`]; readers
+//!   refuse an unknown major), the generator, and one [`Asset`] per payload with its kind,
+//!   file, byte length, BLAKE3, format, dimensions, the settings it was baked with and the
+//!   input hash that lets the baker skip unchanged work.
+//! - Textures are standard KTX2 files ([`ktx2_file`]): 2D, 2D-array and 3D, optionally zstd
+//!   supercompressed, readable by any KTX2 reader.
+//! - Meshes are little-endian buffers described by glTF-like accessors ([`mesh`]).
+//! - [`BundleWriter`] writes payloads under content-derived names and replaces the manifest
+//!   atomically, so a bake killed at any point leaves the previous bundle valid.
+//! - [`Bundle::open`] reads a bundle back with every payload's size and hash checked;
+//!   [`validate()`] checks everything a reader relies on and reports each problem.
+//!
+//! ```no_run
+//! let bundle = hikage_bundle::Bundle::open("bundle".as_ref())?;
+//! for asset in &bundle.manifest().assets {
+//!     println!("{} ({:?})", asset.id, asset.kind);
+//! }
+//! # Ok::<(), hikage_bundle::BundleError>(())
+//! ```
+
+mod bundle;
+mod error;
+pub mod inspect;
+pub mod ktx2_file;
+mod limits;
+pub mod manifest;
+pub mod mesh;
+mod names;
+pub mod texture;
+pub mod validate;
+mod writer;
+
+pub use bundle::Bundle;
+pub use error::BundleError;
+pub use limits::Limits;
+pub use manifest::{Asset, AssetKind, FormatVersion, HeightfieldSettings, MANIFEST_FILE, Manifest, Payload, Settings};
+pub use mesh::{Accessor, ComponentType, MeshData, MeshDesc};
+pub use names::{is_valid_asset_id, payload_file_name};
+pub use texture::{Supercompression, TextureData, TextureDesc, TextureDimension, TextureFormat};
+pub use validate::{Problem, Report, validate};
+pub use writer::{BundleWriter, CommitSummary, WriteMode};
+
+/// The generator string written into manifests by this version of hikage.
+pub const GENERATOR: &str = concat!("hikage ", env!("CARGO_PKG_VERSION"));

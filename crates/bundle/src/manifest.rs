@@ -1,0 +1,223 @@
+//! The schema of `bundle.ron`.
+//!
+//! The manifest is RON, written with assets sorted by id and no timestamps, so the same inputs
+//! give a byte-identical file. A minor version bump only adds optional fields (older readers
+//! ignore them); a major bump changes meaning, and readers refuse a major they do not know.
+
+use std::fmt;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::BundleError;
+use crate::mesh::MeshDesc;
+use crate::texture::TextureDesc;
+
+/// File name of the manifest inside a bundle directory.
+pub const MANIFEST_FILE: &str = "bundle.ron";
+
+/// Bundle format version. Readers accept any minor of their major.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct FormatVersion {
+    /// Incompatible changes.
+    pub major: u32,
+    /// Additions an older reader of the same major can ignore.
+    pub minor: u32,
+}
+
+impl FormatVersion {
+    /// The version this crate writes and reads.
+    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 0 };
+}
+
+impl fmt::Display for FormatVersion {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}.{}", self.major, self.minor)
+    }
+}
+
+/// The whole manifest.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// Format version of this manifest.
+    pub format: FormatVersion,
+    /// Program that wrote the bundle, e.g. `hikage 0.1.0`.
+    pub generator: String,
+    /// The assets, sorted by id.
+    pub assets: Vec<Asset>,
+}
+
+/// What an asset is for; decides which [`Settings`] and [`Payload`] it must carry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum AssetKind {
+    /// A heightfield: a one-channel 2D texture of samples; world height is
+    /// `height_offset + height_scale × sample`.
+    Heightfield,
+    /// A texture with no hikage-specific meaning (tests, user data).
+    Texture,
+    /// A mesh with no hikage-specific meaning.
+    Mesh,
+}
+
+impl AssetKind {
+    /// Lower-case name used by the CLI and JSON output.
+    pub fn name(self) -> &'static str {
+        match self {
+            AssetKind::Heightfield => "heightfield",
+            AssetKind::Texture => "texture",
+            AssetKind::Mesh => "mesh",
+        }
+    }
+}
+
+/// One payload file and everything needed to trust and use it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Asset {
+    /// Unique id inside the bundle (`A–Z a–z 0–9 _ - .`).
+    pub id: String,
+    /// What the asset is.
+    pub kind: AssetKind,
+    /// Payload file name, relative to the bundle directory; never contains a separator.
+    pub file: String,
+    /// Size of the payload file in bytes.
+    pub byte_length: u64,
+    /// BLAKE3 of the payload file, lower-case hex.
+    pub blake3: String,
+    /// BLAKE3 (hex) of the inputs, canonical settings and baker algorithm version; the baker
+    /// skips a job whose input hash matches.
+    pub input_hash: String,
+    /// Format and dimensions of the payload.
+    pub payload: Payload,
+    /// The settings the asset was baked with.
+    pub settings: Settings,
+}
+
+/// How the payload file is laid out.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Payload {
+    /// A KTX2 texture.
+    Texture(TextureDesc),
+    /// A little-endian buffer described by accessors.
+    Mesh(MeshDesc),
+}
+
+impl Payload {
+    /// The texture description, when the payload is a texture.
+    pub fn texture(&self) -> Option<&TextureDesc> {
+        match self {
+            Payload::Texture(t) => Some(t),
+            Payload::Mesh(_) => None,
+        }
+    }
+
+    /// The mesh description, when the payload is a mesh.
+    pub fn mesh(&self) -> Option<&MeshDesc> {
+        match self {
+            Payload::Mesh(m) => Some(m),
+            Payload::Texture(_) => None,
+        }
+    }
+}
+
+/// Settings an asset was baked with, by kind.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Settings {
+    /// No hikage-specific settings (generic textures and meshes).
+    Generic,
+    /// A heightfield import.
+    Heightfield(HeightfieldSettings),
+}
+
+/// How a heightfield's samples map to world space (DESIGN.md "World units").
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HeightfieldSettings {
+    /// World units per texel along `u` (columns) and `v` (rows); may differ.
+    pub texel_size: (f32, f32),
+    /// World height = `height_offset + height_scale × sample`.
+    pub height_scale: f32,
+    /// See `height_scale`.
+    pub height_offset: f32,
+    /// Channel taken from the source image (`Y`, `R`, … or `luma` for grayscale PNG).
+    pub source_channel: String,
+    /// True when the source held integers normalised to [0, 1] before scaling.
+    pub normalized: bool,
+}
+
+impl Manifest {
+    /// An empty manifest of the current version.
+    pub fn new() -> Self {
+        Manifest { format: FormatVersion::CURRENT, generator: crate::GENERATOR.to_string(), assets: Vec::new() }
+    }
+
+    /// The asset with this id.
+    pub fn asset(&self, id: &str) -> Option<&Asset> {
+        self.assets.iter().find(|a| a.id == id)
+    }
+
+    /// Parses a manifest, checking the version first so that a newer major is reported as
+    /// such rather than as a schema mismatch. `path` is only used in error messages.
+    pub fn parse(text: &str, path: &Path) -> Result<Manifest, BundleError> {
+        #[derive(Deserialize)]
+        struct VersionOnly {
+            format: FormatVersion,
+        }
+        // Read the version alone first: its fields are stable across majors.
+        let version = ron::Options::default().from_str::<VersionOnly>(text).map(|v| v.format).ok();
+        if let Some(found) = version {
+            if found.major != FormatVersion::CURRENT.major {
+                return Err(BundleError::UnsupportedVersion {
+                    path: path.to_path_buf(),
+                    found,
+                    supported: FormatVersion::CURRENT,
+                });
+            }
+        }
+        ron::Options::default().from_str::<Manifest>(text).map_err(|e| BundleError::ManifestSyntax {
+            path: path.to_path_buf(),
+            line: e.span.start.line,
+            col: e.span.start.col,
+            message: e.code.to_string(),
+        })
+    }
+
+    /// Serialises the manifest: pretty RON with assets sorted by id, ending in a newline.
+    pub fn to_ron(&self) -> String {
+        let mut sorted = self.clone();
+        sorted.assets.sort_by(|a, b| a.id.cmp(&b.id));
+        let config = ron::ser::PrettyConfig::new().indentor("    ").struct_names(false).compact_arrays(false);
+        let mut text = ron::ser::to_string_pretty(&sorted, config).expect("manifest types always serialise");
+        text.push('\n');
+        text
+    }
+}
+
+impl Default for Manifest {
+    fn default() -> Self {
+        Manifest::new()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unknown_major_is_named() {
+        let text = "(format: (major: 7, minor: 2), generator: \"x\", assets: [], later: 1)";
+        let err = Manifest::parse(text, Path::new("b/bundle.ron")).unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.contains("7.2") && msg.contains("1.0"), "{msg}");
+    }
+
+    #[test]
+    fn syntax_errors_have_line_and_column() {
+        let text = "(\n  format: (major: 1, minor: 0),\n  generator: 5,\n  assets: [],\n)";
+        match Manifest::parse(text, Path::new("bundle.ron")).unwrap_err() {
+            BundleError::ManifestSyntax { line, col, .. } => {
+                assert_eq!(line, 3);
+                assert!(col > 1);
+            }
+            e => panic!("unexpected {e}"),
+        }
+    }
+}

@@ -1,0 +1,255 @@
+//! Mesh payloads: one little-endian buffer holding vertex streams and an optional index
+//! stream, each described by an accessor the way glTF describes them (byte offset, byte
+//! stride, component type, components per element, element count).
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::BundleError;
+
+/// Scalar type of an accessor's components.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ComponentType {
+    /// Unsigned 8-bit integer.
+    U8,
+    /// Unsigned 16-bit integer.
+    U16,
+    /// Unsigned 32-bit integer.
+    U32,
+    /// 32-bit IEEE float.
+    F32,
+}
+
+impl ComponentType {
+    /// Size of one component in bytes.
+    pub fn bytes(self) -> usize {
+        match self {
+            ComponentType::U8 => 1,
+            ComponentType::U16 => 2,
+            ComponentType::U32 | ComponentType::F32 => 4,
+        }
+    }
+}
+
+/// One stream of a mesh buffer.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Accessor {
+    /// Attribute name (`position`, `curvature`, …); `index` for the index stream.
+    pub name: String,
+    /// Byte offset of the first element in the payload.
+    pub offset: u64,
+    /// Bytes from one element to the next (≥ the element size).
+    pub stride: u32,
+    /// Scalar type of each component.
+    pub component: ComponentType,
+    /// Components per element (1 to 4).
+    pub components: u8,
+    /// Number of elements.
+    pub count: u32,
+}
+
+impl Accessor {
+    /// Bytes of one element.
+    pub fn element_bytes(&self) -> usize {
+        self.component.bytes() * self.components as usize
+    }
+
+    /// One past the last byte this accessor reads, or `None` on overflow.
+    pub fn end(&self) -> Option<u64> {
+        if self.count == 0 {
+            return Some(self.offset);
+        }
+        (self.count as u64 - 1)
+            .checked_mul(self.stride as u64)?
+            .checked_add(self.offset)?
+            .checked_add(self.element_bytes() as u64)
+    }
+}
+
+/// Layout of a mesh payload, as recorded in the manifest.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MeshDesc {
+    /// Vertices per attribute stream.
+    pub vertex_count: u32,
+    /// Vertex attribute streams; each has `vertex_count` elements.
+    pub attributes: Vec<Accessor>,
+    /// Triangle-list indices (U16 or U32 scalars), each below `vertex_count`.
+    pub indices: Option<Accessor>,
+}
+
+impl MeshDesc {
+    /// The attribute named `name`.
+    pub fn attribute(&self, name: &str) -> Option<&Accessor> {
+        self.attributes.iter().find(|a| a.name == name)
+    }
+
+    /// Checks every accessor against the payload length: shape, bounds, counts.
+    pub fn check(&self, payload_len: u64) -> Result<(), String> {
+        let all = self.attributes.iter().chain(self.indices.iter());
+        for a in all {
+            if !(1..=4).contains(&a.components) {
+                return Err(format!("accessor `{}`: expected 1 to 4 components, found {}", a.name, a.components));
+            }
+            if (a.stride as usize) < a.element_bytes() {
+                return Err(format!(
+                    "accessor `{}`: stride {} is below the element size {}",
+                    a.name,
+                    a.stride,
+                    a.element_bytes()
+                ));
+            }
+            if a.offset % a.component.bytes() as u64 != 0 || a.stride as usize % a.component.bytes() != 0 {
+                return Err(format!(
+                    "accessor `{}`: offset and stride must be multiples of the component size",
+                    a.name
+                ));
+            }
+            match a.end() {
+                Some(end) if end <= payload_len => {}
+                _ => {
+                    return Err(format!(
+                        "accessor `{}`: {} elements from byte {} with stride {} run past the {payload_len}-byte payload",
+                        a.name, a.count, a.offset, a.stride
+                    ));
+                }
+            }
+        }
+        for a in &self.attributes {
+            if a.count != self.vertex_count {
+                return Err(format!(
+                    "attribute `{}` has {} elements, expected vertex_count {}",
+                    a.name, a.count, self.vertex_count
+                ));
+            }
+        }
+        if let Some(ix) = &self.indices {
+            if !matches!(ix.component, ComponentType::U16 | ComponentType::U32) || ix.components != 1 {
+                return Err("indices must be U16 or U32 scalars".into());
+            }
+            if ix.count % 3 != 0 {
+                return Err(format!("{} indices is not a whole number of triangles", ix.count));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A mesh payload in memory.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshData {
+    /// Layout.
+    pub desc: MeshDesc,
+    /// The payload bytes.
+    pub bytes: Vec<u8>,
+}
+
+impl MeshData {
+    /// Starts an empty mesh of `vertex_count` vertices; add streams with the `push_*` methods.
+    pub fn new(vertex_count: u32) -> Self {
+        MeshData { desc: MeshDesc { vertex_count, attributes: Vec::new(), indices: None }, bytes: Vec::new() }
+    }
+
+    fn push_stream(
+        &mut self,
+        name: &str,
+        component: ComponentType,
+        components: u8,
+        count: u32,
+        data: &[u8],
+    ) -> Accessor {
+        self.bytes.resize(self.bytes.len().div_ceil(4) * 4, 0);
+        let accessor = Accessor {
+            name: name.to_string(),
+            offset: self.bytes.len() as u64,
+            stride: (component.bytes() * components as usize) as u32,
+            component,
+            components,
+            count,
+        };
+        self.bytes.extend_from_slice(data);
+        accessor
+    }
+
+    /// Appends a tightly packed f32 attribute of `components` per vertex.
+    pub fn push_f32(&mut self, name: &str, components: u8, values: &[f32]) -> Result<(), BundleError> {
+        let expected = self.desc.vertex_count as usize * components as usize;
+        if values.len() != expected {
+            return Err(BundleError::InvalidData(format!(
+                "attribute `{name}`: expected {expected} values, found {}",
+                values.len()
+            )));
+        }
+        let data: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let a = self.push_stream(name, ComponentType::F32, components, self.desc.vertex_count, &data);
+        self.desc.attributes.push(a);
+        Ok(())
+    }
+
+    /// Sets the triangle-list index stream (U32).
+    pub fn set_indices(&mut self, indices: &[u32]) -> Result<(), BundleError> {
+        if let Some(&bad) = indices.iter().find(|&&i| i >= self.desc.vertex_count) {
+            return Err(BundleError::InvalidData(format!(
+                "index {bad} is not below the vertex count {}",
+                self.desc.vertex_count
+            )));
+        }
+        let data: Vec<u8> = indices.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let a = self.push_stream("index", ComponentType::U32, 1, indices.len() as u32, &data);
+        self.desc.indices = Some(a);
+        Ok(())
+    }
+
+    /// Reads attribute `name` as f32 values (F32 accessors only), `components` per vertex.
+    pub fn read_f32(&self, name: &str) -> Option<Vec<f32>> {
+        let a = self.desc.attribute(name)?;
+        if a.component != ComponentType::F32 {
+            return None;
+        }
+        Some(
+            read_elements(&self.bytes, a)
+                .flat_map(|e| e.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect::<Vec<_>>())
+                .collect(),
+        )
+    }
+
+    /// Reads the index stream widened to u32.
+    pub fn read_indices(&self) -> Option<Vec<u32>> {
+        let a = self.desc.indices.as_ref()?;
+        Some(read_elements(&self.bytes, a).map(|e| read_uint(e, a.component)).collect())
+    }
+}
+
+/// The bytes of each element of `a` (the accessor must have been checked against `bytes`).
+pub(crate) fn read_elements<'a>(bytes: &'a [u8], a: &'a Accessor) -> impl Iterator<Item = &'a [u8]> + 'a {
+    (0..a.count as usize).map(move |i| {
+        let start = a.offset as usize + i * a.stride as usize;
+        &bytes[start..start + a.element_bytes()]
+    })
+}
+
+pub(crate) fn read_uint(e: &[u8], c: ComponentType) -> u32 {
+    match c {
+        ComponentType::U8 => e[0] as u32,
+        ComponentType::U16 => u16::from_le_bytes([e[0], e[1]]) as u32,
+        _ => u32::from_le_bytes([e[0], e[1], e[2], e[3]]),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn streams_are_aligned_and_read_back() {
+        let mut m = MeshData::new(3);
+        m.push_f32("position", 3, &[0., 0., 0., 1., 0., 0., 0., 1., 0.]).unwrap();
+        m.push_f32("width", 1, &[0.5, 0.25, 1.0]).unwrap();
+        m.set_indices(&[0, 1, 2]).unwrap();
+        m.desc.check(m.bytes.len() as u64).unwrap();
+        assert_eq!(m.read_f32("width").unwrap(), vec![0.5, 0.25, 1.0]);
+        assert_eq!(m.read_indices().unwrap(), vec![0, 1, 2]);
+        // Little-endian bytes of 1.0f32 at the second position's x.
+        assert_eq!(&m.bytes[12..16], &[0x00, 0x00, 0x80, 0x3F]);
+        assert!(m.set_indices(&[0, 1, 3]).is_err());
+        assert!(m.desc.check(10).is_err());
+    }
+}

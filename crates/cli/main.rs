@@ -1,0 +1,262 @@
+//! `hikage`: bakes pipelines into bundles, validates, inspects and exports them.
+//!
+//! Thin by design: parse arguments, call `hikage-bake` / `hikage-bundle`, report. Exit codes:
+//! 0 success, 1 invalid input or failed validation, 2 usage error, 3 I/O error.
+
+mod progress;
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::{Parser, Subcommand, ValueEnum};
+use hikage_bake::BakeError;
+use hikage_bake::export::{ExportFormat, export_texture};
+use hikage_bake::run::{RunOptions, check_pipeline, run_pipeline};
+use hikage_bundle::{Bundle, BundleError};
+
+const EXIT_CODES: &str = "\
+Exit codes:
+  0  success
+  1  invalid input, invalid settings, or a bundle that failed validation
+  2  usage error (unknown command or option, missing argument)
+  3  I/O error (a file or directory that cannot be read or written)";
+
+/// Bakes, validates, inspects and exports hikage bundles.
+#[derive(Parser)]
+#[command(name = "hikage", version, about, after_help = EXIT_CODES)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Bake a pipeline into its bundle, skipping jobs whose inputs and settings are unchanged.
+    #[command(after_help = EXIT_CODES)]
+    Bake {
+        /// Pipeline file.
+        #[arg(default_value = "pipeline.ron")]
+        pipeline: PathBuf,
+        /// Bake every job even if unchanged; replace an unreadable bundle.
+        #[arg(long)]
+        force: bool,
+        /// Worker threads (default: one per core). Output is identical for any value.
+        #[arg(long, short = 'j', value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+        jobs: Option<u16>,
+    },
+    /// Validate a bundle directory, or a pipeline file without baking it.
+    #[command(after_help = EXIT_CODES)]
+    Validate {
+        /// A bundle directory or a pipeline `.ron` file.
+        path: PathBuf,
+        /// Output format.
+        #[arg(long, value_enum, default_value_t = OutputFormat::Text)]
+        format: OutputFormat,
+    },
+    /// List a bundle's assets.
+    #[command(after_help = EXIT_CODES)]
+    Inspect {
+        /// Bundle directory.
+        bundle: PathBuf,
+        /// Output format.
+        #[arg(long, value_enum, default_value_t = OutputFormat::Text)]
+        format: OutputFormat,
+    },
+    /// Export a texture asset as OpenEXR (one layer per slice) or raw little-endian f32.
+    #[command(after_help = EXIT_CODES)]
+    Export {
+        /// Bundle directory.
+        bundle: PathBuf,
+        /// Asset id.
+        asset: String,
+        /// Output file.
+        #[arg(long)]
+        out: PathBuf,
+        /// Write raw little-endian f32 in [slice][row][col] order (channels interleaved last
+        /// when no channel is picked).
+        #[arg(long)]
+        raw: bool,
+        /// Channel to export, by name (as `inspect` lists them), letter (r, g, b, a) or index.
+        #[arg(long)]
+        channel: Option<String>,
+    },
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum OutputFormat {
+    Text,
+    Json,
+}
+
+/// An error with the exit code it maps to.
+struct Failure {
+    code: u8,
+    error: anyhow::Error,
+}
+
+impl<E: Into<anyhow::Error>> From<E> for Failure {
+    fn from(e: E) -> Self {
+        let error = e.into();
+        let io = error.chain().any(|c| {
+            c.downcast_ref::<BakeError>().is_some_and(BakeError::is_io)
+                || c.downcast_ref::<BundleError>().is_some_and(BundleError::is_io)
+        });
+        Failure { code: if io { 3 } else { 1 }, error }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
+        }
+    };
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(f) => {
+            eprintln!("error: {:#}", f.error);
+            ExitCode::from(f.code)
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<(), Failure> {
+    match cli.command {
+        Command::Bake { pipeline, force, jobs } => bake(&pipeline, force, jobs),
+        Command::Validate { path, format } => validate(&path, format),
+        Command::Inspect { bundle, format } => inspect(&bundle, format),
+        Command::Export { bundle, asset, out, raw, channel } => export(&bundle, &asset, &out, raw, channel.as_deref()),
+    }
+}
+
+fn bake(pipeline: &Path, force: bool, jobs: Option<u16>) -> Result<(), Failure> {
+    let observer = progress::Bars::new();
+    let options = RunOptions { force, threads: jobs.map(usize::from), observer: &observer };
+    let report = run_pipeline(pipeline, &options).with_context(|| format!("baking {}", pipeline.display()));
+    observer.finish();
+    let report = report?;
+    println!(
+        "{}: baked {}, skipped {}{}",
+        report.bundle.display(),
+        report.baked.len(),
+        report.skipped.len(),
+        if report.removed.is_empty() {
+            String::new()
+        } else {
+            format!(", removed {} stale payloads", report.removed.len())
+        }
+    );
+    Ok(())
+}
+
+fn validate(path: &Path, format: OutputFormat) -> Result<(), Failure> {
+    if path.is_file() {
+        return validate_pipeline(path, format);
+    }
+    let report = hikage_bundle::validate(path).with_context(|| format!("validating {}", path.display()));
+    let report = match (report, format) {
+        (Ok(r), _) => r,
+        (Err(e), OutputFormat::Json) => {
+            println!("{}", serde_json::json!({ "valid": false, "error": format!("{:#}", e) }));
+            return Err(e.into());
+        }
+        (Err(e), OutputFormat::Text) => return Err(e.into()),
+    };
+    match format {
+        OutputFormat::Json => println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "valid": report.is_valid(),
+                "assets": report.assets,
+                "problems": report.problems,
+            }))?
+        ),
+        OutputFormat::Text => {
+            for p in &report.problems {
+                println!("{}: asset `{}`: {}", p.file.display(), p.asset, p.message);
+            }
+            if report.is_valid() {
+                println!("{}: valid ({} assets)", path.display(), report.assets);
+            }
+        }
+    }
+    if report.is_valid() {
+        Ok(())
+    } else {
+        Err(Failure {
+            code: 1,
+            error: anyhow::anyhow!("{}: {} problem(s) found", path.display(), report.problems.len()),
+        })
+    }
+}
+
+fn validate_pipeline(path: &Path, format: OutputFormat) -> Result<(), Failure> {
+    let observer = progress::Bars::new();
+    let check = check_pipeline(path, &observer).with_context(|| format!("checking {}", path.display()));
+    observer.finish();
+    match (check, format) {
+        (Ok(c), OutputFormat::Json) => {
+            println!(
+                "{}",
+                serde_json::to_string_pretty(
+                    &serde_json::json!({ "valid": true, "jobs": c.jobs, "inputs": c.inputs })
+                )?
+            );
+            Ok(())
+        }
+        (Ok(c), OutputFormat::Text) => {
+            println!("{}: valid ({} jobs, {} inputs)", path.display(), c.jobs.len(), c.inputs.len());
+            Ok(())
+        }
+        (Err(e), OutputFormat::Json) => {
+            println!("{}", serde_json::json!({ "valid": false, "error": format!("{:#}", e) }));
+            Err(e.into())
+        }
+        (Err(e), OutputFormat::Text) => Err(e.into()),
+    }
+}
+
+fn inspect(dir: &Path, format: OutputFormat) -> Result<(), Failure> {
+    let bundle = Bundle::open(dir).with_context(|| format!("opening {}", dir.display()))?;
+    let summary = hikage_bundle::inspect::summarize(bundle.manifest());
+    match format {
+        OutputFormat::Json => println!("{}", serde_json::to_string_pretty(&summary)?),
+        OutputFormat::Text => {
+            println!("{} — format {}, written by {}", dir.display(), summary.format, summary.generator);
+            for a in &summary.assets {
+                let dims = a.dimensions.iter().map(u64::to_string).collect::<Vec<_>>().join("×");
+                println!(
+                    "  {:<28} {:<12} {:<12} {:<8} {:<16} {:>10} B  [{}]",
+                    a.id,
+                    a.kind,
+                    a.format,
+                    a.dimension,
+                    dims,
+                    a.byte_length,
+                    a.channels.join(", ")
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+fn export(dir: &Path, asset: &str, out: &Path, raw: bool, channel: Option<&str>) -> Result<(), Failure> {
+    let bundle = Bundle::open(dir).with_context(|| format!("opening {}", dir.display()))?;
+    let format = if raw { ExportFormat::Raw } else { ExportFormat::Exr };
+    let s = export_texture(&bundle, asset, channel, format, out)
+        .with_context(|| format!("exporting `{asset}` from {}", dir.display()))?;
+    println!(
+        "{}: {} slice(s) of {}×{}, channels [{}], {} bytes",
+        out.display(),
+        s.slices,
+        s.width,
+        s.height,
+        s.channels.join(", "),
+        s.bytes
+    );
+    Ok(())
+}
