@@ -1,1 +1,7 @@
+//! End-to-end tests: the `hikage` binary on real files, then the runtime on what it baked.
 
+mod util;
+
+mod bad_input;
+mod bake;
+mod gpu;

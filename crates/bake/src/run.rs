@@ -93,7 +93,7 @@ pub fn run_loaded(loaded: &LoadedPipeline, options: &RunOptions) -> Result<RunRe
         let id = job.id().to_string();
         options.observer.job_started(index, total, &id, job.kind());
         report.watched.extend(job.inputs(&loaded.base_dir));
-        let hash = job.input_hash(&loaded.base_dir)?;
+        let hash = job.input_hash(&loaded.base_dir, &loaded.pipeline.limits)?;
 
         let reusable: Option<Vec<_>> =
             if options.force { None } else { job.outputs().iter().map(|o| writer.reusable(o, &hash)).collect() };

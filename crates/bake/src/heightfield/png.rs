@@ -10,10 +10,17 @@ use crate::error::BakeError;
 
 pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Samples, BakeError> {
     let bad = |e: image::ImageError| BakeError::input(path, None, format!("cannot decode PNG: {e}"));
+    // The size sits at a fixed place (IHDR, bytes 16..24): check it before the decoder reads on.
+    check_ihdr(path, options)?;
     let reader = image::ImageReader::open(path)
         .map_err(|e| BakeError::io(path, e))?
         .with_guessed_format()
         .map_err(|e| BakeError::io(path, e))?;
+    let mut reader = reader;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(options.max_dimension);
+    limits.max_image_height = Some(options.max_dimension);
+    reader.limits(limits);
     let decoder = reader.into_decoder().map_err(bad)?;
     let (w, h) = decoder.dimensions();
     check_dimensions(path, w as u64, h as u64, options.max_dimension)?;
@@ -76,4 +83,17 @@ pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Samples, BakeEr
         options.channel.clone().unwrap_or_default().to_ascii_uppercase()
     };
     Ok(Samples { width: w, height: h, values, normalized: true, channel })
+}
+
+/// Reads the IHDR chunk's width and height (big-endian at bytes 16 and 20) and checks them.
+fn check_ihdr(path: &Path, options: &LoadOptions) -> Result<(), BakeError> {
+    use std::io::Read;
+    let mut head = [0u8; 24];
+    let mut f = std::fs::File::open(path).map_err(|e| BakeError::io(path, e))?;
+    if f.read_exact(&mut head).is_err() || &head[12..16] != b"IHDR" {
+        return Err(BakeError::input(path, Some("byte 12".into()), "expected the PNG IHDR chunk"));
+    }
+    let w = u32::from_be_bytes([head[16], head[17], head[18], head[19]]);
+    let h = u32::from_be_bytes([head[20], head[21], head[22], head[23]]);
+    check_dimensions(path, w as u64, h as u64, options.max_dimension)
 }

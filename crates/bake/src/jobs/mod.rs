@@ -111,10 +111,12 @@ impl Job {
         }
     }
 
-    /// The input hash of this job.
-    pub fn input_hash(&self, base_dir: &Path) -> Result<String, BakeError> {
+    /// The input hash of this job. The input limits are part of it, so a tightened limit is
+    /// applied to inputs that were baked before (the result never depends on the cache).
+    pub fn input_hash(&self, base_dir: &Path, limits: &InputLimits) -> Result<String, BakeError> {
         let inputs = self.inputs(base_dir);
         let refs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
-        crate::hash::input_hash(self.kind(), self.algorithm_version(), &self.canonical_settings(), &refs)
+        let settings = format!("{};max_dimension={}", self.canonical_settings(), limits.max_dimension);
+        crate::hash::input_hash(self.kind(), self.algorithm_version(), &settings, &refs)
     }
 }

@@ -1,0 +1,71 @@
+//! A device without a window, for tests, examples and offline rendering.
+//!
+//! On CI this is Mesa's lavapipe (a software Vulkan device); on a desktop any adapter wgpu
+//! finds. [`gpu_required`] reads `HIKAGE_REQUIRE_GPU`: tests skip when no adapter exists unless
+//! it is `1`.
+
+use crate::error::RuntimeError;
+use crate::upload::block_on;
+
+/// True when `HIKAGE_REQUIRE_GPU=1`: a missing adapter must fail tests instead of skipping them.
+pub fn gpu_required() -> bool {
+    std::env::var("HIKAGE_REQUIRE_GPU").is_ok_and(|v| v == "1")
+}
+
+/// An adapter, device and queue.
+pub struct Headless {
+    /// The adapter (its info names the driver, e.g. llvmpipe).
+    pub adapter: wgpu::Adapter,
+    /// The device, with the adapter's own limits.
+    pub device: wgpu::Device,
+    /// The device's queue.
+    pub queue: wgpu::Queue,
+}
+
+impl Headless {
+    /// Opens the first adapter wgpu offers (software adapters included) and a device with the
+    /// adapter's limits.
+    pub fn new() -> Result<Headless, RuntimeError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::None,
+            force_fallback_adapter: false,
+            compatible_surface: None,
+            ..Default::default()
+        }))
+        .map_err(|e| RuntimeError::NoDevice(e.to_string()))?;
+        let (device, queue) = block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("hikage headless"),
+            required_features: wgpu::Features::empty(),
+            required_limits: adapter.limits(),
+            ..Default::default()
+        }))
+        .map_err(|e| RuntimeError::NoDevice(e.to_string()))?;
+        Ok(Headless { adapter, device, queue })
+    }
+
+    /// A one-line description of the adapter.
+    pub fn describe(&self) -> String {
+        let info = self.adapter.get_info();
+        format!("{} ({:?}, {})", info.name, info.backend, info.driver)
+    }
+
+    /// Copies `buffer` (which needs `COPY_SRC`) into a mappable buffer and returns its bytes.
+    pub fn read_buffer(&self, buffer: &wgpu::Buffer) -> Vec<u8> {
+        let size = buffer.size();
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("hikage readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        self.queue.submit([encoder.finish()]);
+        staging.map_async(wgpu::MapMode::Read, .., |r| r.expect("mapping a fresh staging buffer"));
+        self.device.poll(wgpu::PollType::wait_indefinitely()).expect("device poll");
+        let bytes = staging.get_mapped_range(..).expect("buffer was mapped above").to_vec();
+        staging.unmap();
+        bytes
+    }
+}

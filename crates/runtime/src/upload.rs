@@ -1,0 +1,208 @@
+//! The device half of loading: create wgpu textures and buffers from a [`CpuBundle`].
+
+use std::collections::BTreeMap;
+
+use hikage_bundle::{Asset, MeshDesc, TextureData, TextureDesc, TextureDimension, TextureFormat};
+
+use crate::error::RuntimeError;
+use crate::load::{CpuBundle, CpuPayload};
+
+/// The wgpu format of a bundle texture format.
+pub fn wgpu_format(format: TextureFormat) -> wgpu::TextureFormat {
+    match format {
+        TextureFormat::R8Unorm => wgpu::TextureFormat::R8Unorm,
+        TextureFormat::Rg8Unorm => wgpu::TextureFormat::Rg8Unorm,
+        TextureFormat::R16Float => wgpu::TextureFormat::R16Float,
+        TextureFormat::Rg16Float => wgpu::TextureFormat::Rg16Float,
+        TextureFormat::Rgba16Float => wgpu::TextureFormat::Rgba16Float,
+        TextureFormat::R32Float => wgpu::TextureFormat::R32Float,
+        TextureFormat::Rg32Float => wgpu::TextureFormat::Rg32Float,
+        TextureFormat::Rgba32Float => wgpu::TextureFormat::Rgba32Float,
+    }
+}
+
+/// A texture on the device.
+#[derive(Debug)]
+pub struct GpuTexture {
+    /// The manifest entry.
+    pub asset: Asset,
+    /// Format and dimensions as in the manifest.
+    pub desc: TextureDesc,
+    /// The texture (usage: `TEXTURE_BINDING | COPY_DST | COPY_SRC`).
+    pub texture: wgpu::Texture,
+    /// A view of every level (and every layer, as an array, for `D2Array`).
+    pub view: wgpu::TextureView,
+}
+
+/// A mesh buffer on the device.
+#[derive(Debug)]
+pub struct GpuMesh {
+    /// The manifest entry.
+    pub asset: Asset,
+    /// Accessors into `buffer`.
+    pub desc: MeshDesc,
+    /// The whole payload (usage: `VERTEX | INDEX | STORAGE | COPY_DST`), padded to 4 bytes.
+    pub buffer: wgpu::Buffer,
+}
+
+/// Every asset of a bundle on the device, by id.
+#[derive(Debug, Default)]
+pub struct GpuBundle {
+    /// Textures by asset id.
+    pub textures: BTreeMap<String, GpuTexture>,
+    /// Meshes by asset id.
+    pub meshes: BTreeMap<String, GpuMesh>,
+}
+
+impl GpuBundle {
+    /// Uploads every asset. Sizes are checked against the device's limits first, and the
+    /// upload runs inside a validation error scope, so a bundle the device cannot hold gives an
+    /// error naming the asset.
+    pub fn upload(device: &wgpu::Device, queue: &wgpu::Queue, cpu: &CpuBundle) -> Result<GpuBundle, RuntimeError> {
+        let mut out = GpuBundle::default();
+        for a in &cpu.assets {
+            match &a.payload {
+                CpuPayload::Texture(t) => {
+                    let gpu = upload_texture(device, queue, &a.asset, t)?;
+                    out.textures.insert(a.asset.id.clone(), gpu);
+                }
+                CpuPayload::Mesh(m) => {
+                    let gpu = upload_mesh(device, queue, &a.asset, &m.desc, &m.bytes)?;
+                    out.meshes.insert(a.asset.id.clone(), gpu);
+                }
+            }
+        }
+        Ok(out)
+    }
+}
+
+fn unsupported(asset: &Asset, message: String) -> RuntimeError {
+    RuntimeError::Unsupported { asset: asset.id.clone(), message }
+}
+
+fn check_texture(device: &wgpu::Device, asset: &Asset, d: &TextureDesc) -> Result<(), RuntimeError> {
+    let limits = device.limits();
+    let (max_dim, what) = match d.dimension {
+        TextureDimension::D3 => (limits.max_texture_dimension_3d, "3D"),
+        _ => (limits.max_texture_dimension_2d, "2D"),
+    };
+    let largest = d.width.max(d.height).max(if d.dimension == TextureDimension::D3 { d.depth } else { 1 });
+    if largest > max_dim {
+        return Err(unsupported(asset, format!("{what} size {largest} is above the device limit of {max_dim}")));
+    }
+    if d.layers > limits.max_texture_array_layers {
+        return Err(unsupported(
+            asset,
+            format!("{} layers is above the device limit of {}", d.layers, limits.max_texture_array_layers),
+        ));
+    }
+    let format = wgpu_format(d.format);
+    let needed = format.guaranteed_format_features(device.features());
+    if !needed.allowed_usages.contains(wgpu::TextureUsages::TEXTURE_BINDING) {
+        return Err(unsupported(asset, format!("format {format:?} cannot be sampled on this device")));
+    }
+    Ok(())
+}
+
+fn upload_texture(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    asset: &Asset,
+    tex: &TextureData,
+) -> Result<GpuTexture, RuntimeError> {
+    let d = &tex.desc;
+    check_texture(device, asset, d)?;
+    let (dimension, depth_or_array_layers) = match d.dimension {
+        TextureDimension::D2 => (wgpu::TextureDimension::D2, 1),
+        TextureDimension::D2Array => (wgpu::TextureDimension::D2, d.layers),
+        TextureDimension::D3 => (wgpu::TextureDimension::D3, d.depth),
+    };
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(&asset.id),
+        size: wgpu::Extent3d { width: d.width, height: d.height, depth_or_array_layers },
+        mip_level_count: d.levels,
+        sample_count: 1,
+        dimension,
+        format: wgpu_format(d.format),
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    for (level, data) in tex.levels.iter().enumerate() {
+        let (w, h, depth) = d.level_extent(level as u32);
+        let slices = if d.dimension == TextureDimension::D3 { depth } else { d.layers };
+        queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &texture,
+                mip_level: level as u32,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            data,
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(w * d.format.texel_bytes() as u32),
+                rows_per_image: Some(h),
+            },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: slices },
+        );
+    }
+    let view = texture.create_view(&wgpu::TextureViewDescriptor {
+        label: Some(&asset.id),
+        dimension: Some(match d.dimension {
+            TextureDimension::D2 => wgpu::TextureViewDimension::D2,
+            TextureDimension::D2Array => wgpu::TextureViewDimension::D2Array,
+            TextureDimension::D3 => wgpu::TextureViewDimension::D3,
+        }),
+        ..Default::default()
+    });
+    if let Some(e) = block_on(scope.pop()) {
+        return Err(RuntimeError::Wgpu { asset: asset.id.clone(), message: e.to_string() });
+    }
+    Ok(GpuTexture { asset: asset.clone(), desc: d.clone(), texture, view })
+}
+
+fn upload_mesh(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    asset: &Asset,
+    desc: &MeshDesc,
+    bytes: &[u8],
+) -> Result<GpuMesh, RuntimeError> {
+    let size = (bytes.len() as u64).div_ceil(4).max(1) * 4;
+    let max = device.limits().max_buffer_size;
+    if size > max {
+        return Err(unsupported(asset, format!("{size}-byte buffer is above the device limit of {max}")));
+    }
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(&asset.id),
+        size,
+        usage: wgpu::BufferUsages::VERTEX
+            | wgpu::BufferUsages::INDEX
+            | wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut padded = bytes.to_vec();
+    padded.resize(size as usize, 0);
+    queue.write_buffer(&buffer, 0, &padded);
+    if let Some(e) = block_on(scope.pop()) {
+        return Err(RuntimeError::Wgpu { asset: asset.id.clone(), message: e.to_string() });
+    }
+    Ok(GpuMesh { asset: asset.clone(), desc: desc.clone(), buffer })
+}
+
+/// Drives a future to completion on this thread. wgpu's native futures (error scopes, adapter
+/// and device requests) are ready at once or after a device poll, so a spin with yields is
+/// enough and spares the runtime an executor dependency.
+pub(crate) fn block_on<F: std::future::Future>(future: F) -> F::Output {
+    let mut future = std::pin::pin!(future);
+    let mut cx = std::task::Context::from_waker(std::task::Waker::noop());
+    loop {
+        if let std::task::Poll::Ready(v) = future.as_mut().poll(&mut cx) {
+            return v;
+        }
+        std::thread::yield_now();
+    }
+}

@@ -1,0 +1,299 @@
+//! Bad input: each case exits non-zero with a message naming the file and the place, never
+//! panics, and leaves the previous bundle byte-identical.
+
+use crate::util::{Dir, snapshot, stderr, stdout};
+
+/// A directory with a good bundle baked from one job, ready to receive a bad second job.
+fn baked(name: &str) -> Dir {
+    let dir = Dir::new(name);
+    dir.copy_data();
+    dir.write("pipeline.ron", GOOD);
+    dir.run(&["bake"]);
+    dir
+}
+
+const GOOD: &str = "(output: \"bundle\", jobs: [Heightfield(id: \"good\", input: \"data/cylinders.png\")])";
+
+/// Adds a job reading `input` and asserts the bake fails with `code`, a message containing
+/// every needle, and an unchanged bundle.
+fn bake_fails_with(dir: &Dir, extra_job: &str, code: i32, needles: &[&str]) -> String {
+    let pipeline =
+        format!("(output: \"bundle\", jobs: [Heightfield(id: \"good\", input: \"data/cylinders.png\"), {extra_job}])");
+    dir.write("pipeline.ron", &pipeline);
+    let before = snapshot(&dir.path("bundle"));
+    let out = dir.run_expecting(&["bake"], code);
+    let err = stderr(&out);
+    for n in needles {
+        assert!(err.contains(n), "{}", dir.explain(&["bake"], &out, &format!("stderr should contain {n:?}")));
+    }
+    assert_eq!(snapshot(&dir.path("bundle")), before, "the bundle changed after a failed bake");
+    // The pre-check reports the same problem without baking.
+    let out = dir.run_expecting(&["validate", "pipeline.ron"], code);
+    assert!(stderr(&out).contains(needles[0]), "{}", stderr(&out));
+    err
+}
+
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut crc = 0xFFFF_FFFFu32;
+    for &b in bytes {
+        crc ^= b as u32;
+        for _ in 0..8 {
+            crc = if crc & 1 != 0 { (crc >> 1) ^ 0xEDB8_8320 } else { crc >> 1 };
+        }
+    }
+    !crc
+}
+
+/// A PNG signature and IHDR chunk claiming `w`×`h` 16-bit grayscale, with no image data.
+fn png_header_only(w: u32, h: u32) -> Vec<u8> {
+    let mut png = vec![0x89, b'P', b'N', b'G', 0x0D, 0x0A, 0x1A, 0x0A];
+    let mut chunk = b"IHDR".to_vec();
+    chunk.extend_from_slice(&w.to_be_bytes());
+    chunk.extend_from_slice(&h.to_be_bytes());
+    chunk.extend_from_slice(&[16, 0, 0, 0, 0]); // depth 16, grayscale, deflate, filter 0, no interlace
+    png.extend_from_slice(&13u32.to_be_bytes());
+    png.extend_from_slice(&chunk);
+    png.extend_from_slice(&crc32(&chunk).to_be_bytes());
+    png
+}
+
+fn write_exr(dir: &Dir, rel: &str, w: usize, h: usize, values: Vec<f32>, channel: &str) {
+    use exr::prelude::*;
+    let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
+    channels.push(AnyChannel::new(channel, FlatSamples::F32(values)));
+    let image = Image::from_layer(Layer::new(
+        (w, h),
+        LayerAttributes::default(),
+        Encoding::UNCOMPRESSED,
+        AnyChannels::sort(channels),
+    ));
+    image.write().to_file(dir.path(rel)).unwrap();
+}
+
+#[test]
+fn truncated_and_corrupt_png() {
+    let dir = baked("bad_png");
+    let png = dir.read("data/reptile.png");
+    dir.write("data/cut.png", &png[..png.len() / 2]);
+    bake_fails_with(&dir, "Heightfield(id: \"cut\", input: \"data/cut.png\")", 1, &["data/cut.png", "PNG"]);
+    let mut bad = png.clone();
+    bad[24] = 7; // IHDR bit depth 7 does not exist
+    dir.write("data/corrupt.png", &bad);
+    bake_fails_with(&dir, "Heightfield(id: \"c\", input: \"data/corrupt.png\")", 1, &["data/corrupt.png", "PNG"]);
+    dir.write("data/empty.png", b"");
+    bake_fails_with(&dir, "Heightfield(id: \"e\", input: \"data/empty.png\")", 1, &["data/empty.png", "0-byte"]);
+    dir.write("data/text.png", b"hello, this is not an image");
+    bake_fails_with(&dir, "Heightfield(id: \"t\", input: \"data/text.png\")", 1, &["data/text.png", "signature"]);
+}
+
+#[test]
+fn rgb_png_needs_a_channel_and_then_takes_it() {
+    let dir = baked("rgb_png");
+    let mut img = image::RgbImage::new(4, 3);
+    for (x, y, p) in img.enumerate_pixels_mut() {
+        *p = image::Rgb([10 * x as u8, 100 + y as u8, 255]);
+    }
+    img.save(dir.path("data/rgb.png")).unwrap();
+    bake_fails_with(
+        &dir,
+        "Heightfield(id: \"rgb\", input: \"data/rgb.png\")",
+        1,
+        &["data/rgb.png", "grayscale", "channel"],
+    );
+    bake_fails_with(
+        &dir,
+        "Heightfield(id: \"rgb\", input: \"data/rgb.png\", channel: \"Q\")",
+        1,
+        &["data/rgb.png", "\"Q\""],
+    );
+
+    dir.write(
+        "pipeline.ron",
+        "(output: \"bundle\", jobs: [Heightfield(id: \"rgb\", input: \"data/rgb.png\", channel: \"G\", format: R32Float)])",
+    );
+    dir.run(&["bake"]);
+    dir.run(&["export", "bundle", "rgb", "--raw", "--out", "g.f32"]);
+    let v: Vec<f32> = dir.read("g.f32").chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+    let expected: Vec<f32> = (0..3).flat_map(|y| (0..4).map(move |_| (100 + y) as f32 / 255.0)).collect();
+    assert_eq!(v, expected);
+}
+
+#[test]
+fn exr_with_nan_or_truncated() {
+    let dir = baked("bad_exr");
+    let mut values = vec![0.5f32; 8 * 6];
+    values[2 * 8 + 3] = f32::NAN;
+    write_exr(&dir, "data/nan.exr", 8, 6, values, "Y");
+    bake_fails_with(
+        &dir,
+        "Heightfield(id: \"nan\", input: \"data/nan.exr\")",
+        1,
+        &["data/nan.exr", "pixel (3, 2)", "finite"],
+    );
+    let mut values = vec![0.5f32; 8 * 6];
+    values[0] = f32::INFINITY;
+    write_exr(&dir, "data/inf.exr", 8, 6, values, "Y");
+    bake_fails_with(&dir, "Heightfield(id: \"inf\", input: \"data/inf.exr\")", 1, &["data/inf.exr", "pixel (0, 0)"]);
+
+    let exr = std::fs::read(crate::util::repo().join("data/dunes.exr")).unwrap();
+    dir.write("data/cut.exr", &exr[..exr.len() * 2 / 3]);
+    bake_fails_with(&dir, "Heightfield(id: \"cut\", input: \"data/cut.exr\")", 1, &["data/cut.exr", "OpenEXR"]);
+
+    // Several channels and none of Y/R: an error listing them, or the named one.
+    write_exr(&dir, "data/z.exr", 2, 2, vec![1.0, 2.0, 3.0, 4.0], "Z");
+    dir.write("pipeline.ron", "(output: \"b2\", jobs: [Heightfield(id: \"z\", input: \"data/z.exr\")])");
+    dir.run(&["bake"]); // a single channel is taken whatever its name
+}
+
+#[test]
+fn zero_sized_and_over_limit_dimensions_are_refused_before_decoding() {
+    let dir = baked("dimensions");
+    dir.write("data/zero.png", png_header_only(0, 16));
+    bake_fails_with(&dir, "Heightfield(id: \"z\", input: \"data/zero.png\")", 1, &["data/zero.png"]);
+    // 100000² 16-bit would need 20 GB: refused from the header alone.
+    dir.write("data/huge.png", png_header_only(100_000, 100_000));
+    bake_fails_with(&dir, "Heightfield(id: \"h\", input: \"data/huge.png\")", 1, &["data/huge.png", "limit of 16384"]);
+    // The limit is configurable.
+    dir.write(
+        "pipeline.ron",
+        "(output: \"bundle\", limits: (max_dimension: 64), jobs: [Heightfield(id: \"good\", input: \"data/cylinders.png\")])",
+    );
+    let before = snapshot(&dir.path("bundle"));
+    let out = dir.run_expecting(&["bake"], 1);
+    assert!(stderr(&out).contains("data/cylinders.png") && stderr(&out).contains("limit of 64"), "{}", stderr(&out));
+    assert_eq!(snapshot(&dir.path("bundle")), before);
+}
+
+#[test]
+fn pipeline_syntax_type_and_setting_errors() {
+    let dir = baked("pipeline_errors");
+    let before = snapshot(&dir.path("bundle"));
+    let cases: [(&str, &[&str]); 6] = [
+        (
+            "(output: \"bundle\",\n jobs: [\n Heightfield(id: \"x\" input: \"data/cylinders.png\")])",
+            &["pipeline.ron:3:"],
+        ),
+        (
+            "(output: \"bundle\",\n jobs: [\n Heightfield(id: \"x\", input: \"data/cylinders.png\", height_scale: \"tall\")])",
+            &["pipeline.ron:3:"],
+        ),
+        (
+            "(output: \"bundle\",\n jobs: [\n Heightfield(id: \"x\", input: \"data/cylinders.png\", texel_sise: (1, 1))])",
+            &["pipeline.ron:3:", "texel_sise"],
+        ),
+        ("(output: \"bundle\", jobs: [Horizonn(id: \"x\")])", &["pipeline.ron:1:", "Horizonn"]),
+        (
+            "(output: \"bundle\", jobs: [Heightfield(id: \"x\", input: \"data/cylinders.png\", texel_size: (0, 1))])",
+            &["pipeline.ron", "job `x`", "texel_size"],
+        ),
+        (
+            "(output: \"bundle\", jobs: [Heightfield(id: \"a/b\", input: \"data/cylinders.png\")])",
+            &["pipeline.ron", "not valid"],
+        ),
+    ];
+    for (text, needles) in cases {
+        dir.write("pipeline.ron", text);
+        for args in [&["bake"][..], &["validate", "pipeline.ron"][..]] {
+            let out = dir.run_expecting(args, 1);
+            for n in needles {
+                assert!(
+                    stderr(&out).contains(n),
+                    "{}",
+                    dir.explain(args, &out, &format!("stderr should contain {n:?}"))
+                );
+            }
+        }
+    }
+    dir.write("pipeline.ron", "(output: \"bundle\", jobs: [Heightfield(id: \"a\", input: \"data/cylinders.png\"), Heightfield(id: \"a\", input: \"data/reptile.png\")])");
+    let out = dir.run_expecting(&["bake"], 1);
+    assert!(stderr(&out).contains("also made by job `a`"), "{}", stderr(&out));
+    assert_eq!(snapshot(&dir.path("bundle")), before);
+}
+
+#[test]
+fn missing_input_is_an_io_error_naming_the_file() {
+    let dir = baked("missing_input");
+    bake_fails_with(&dir, "Heightfield(id: \"m\", input: \"data/missing.png\")", 3, &["data/missing.png"]);
+    let out = Dir::new("missing_pipeline").run_expecting(&["bake", "nowhere.ron"], 3);
+    assert!(stderr(&out).contains("nowhere.ron"));
+}
+
+fn edit_manifest(dir: &Dir, from: &str, to: &str) {
+    let text = String::from_utf8(dir.read("bundle/bundle.ron")).unwrap();
+    assert!(text.contains(from), "{from:?} not in manifest");
+    dir.write("bundle/bundle.ron", text.replacen(from, to, 1));
+}
+
+#[test]
+fn unknown_major_version_is_refused_and_never_overwritten() {
+    let dir = baked("major");
+    edit_manifest(&dir, "major: 1", "major: 9");
+    let out = dir.run_expecting(&["validate", "bundle"], 1);
+    assert!(stderr(&out).contains("9.0") && stderr(&out).contains("1.0"), "{}", stderr(&out));
+    let out = dir.run_expecting(&["inspect", "bundle"], 1);
+    assert!(stderr(&out).contains("bundle.ron"), "{}", stderr(&out));
+    let before = snapshot(&dir.path("bundle"));
+    dir.write("pipeline.ron", GOOD);
+    dir.run_expecting(&["bake"], 1);
+    assert_eq!(snapshot(&dir.path("bundle")), before);
+    // --force replaces it.
+    dir.run(&["bake", "--force"]);
+    dir.run(&["validate", "bundle"]);
+}
+
+#[test]
+fn manifest_paths_escaping_the_bundle_are_refused() {
+    for (name, bad) in [("escape_rel", "../x.ktx2"), ("escape_abs", "/etc/passwd"), ("escape_sub", "sub/x.ktx2")] {
+        let dir = baked(name);
+        let text = String::from_utf8(dir.read("bundle/bundle.ron")).unwrap();
+        let file = text.split("file: \"").nth(1).unwrap().split('"').next().unwrap().to_string();
+        edit_manifest(&dir, &file, bad);
+        let out = dir.run_expecting(&["validate", "bundle"], 1);
+        assert!(
+            stdout(&out).contains("not a plain file name") && stdout(&out).contains(bad),
+            "{}",
+            dir.explain(&["validate", "bundle"], &out, "escape named")
+        );
+        dir.run_expecting(&["export", "bundle", "good", "--raw", "--out", "x"], 1);
+    }
+}
+
+#[test]
+fn truncated_ktx2_with_a_matching_hash_is_caught_by_the_header_check() {
+    let dir = baked("truncated_ktx2");
+    let text = String::from_utf8(dir.read("bundle/bundle.ron")).unwrap();
+    let file = text.split("file: \"").nth(1).unwrap().split('"').next().unwrap().to_string();
+    let bytes = dir.read(&format!("bundle/{file}"));
+    let cut = &bytes[..bytes.len() - 100];
+    dir.write(&format!("bundle/{file}"), cut);
+    // Make size and hash agree so that only the KTX2 structure is wrong.
+    let old_hash = text.split("blake3: \"").nth(1).unwrap().split('"').next().unwrap().to_string();
+    edit_manifest(&dir, &old_hash, blake3::hash(cut).to_hex().as_str());
+    edit_manifest(&dir, &format!("byte_length: {}", bytes.len()), &format!("byte_length: {}", cut.len()));
+    let out = dir.run_expecting(&["validate", "bundle"], 1);
+    assert!(stdout(&out).contains("`good`") && stdout(&out).contains("KTX2"), "{}", stdout(&out));
+    // A byte-length lie alone is named as such.
+    edit_manifest(&dir, &format!("byte_length: {}", cut.len()), "byte_length: 5");
+    let out = dir.run_expecting(&["validate", "bundle"], 1);
+    assert!(stdout(&out).contains("bytes, the manifest says 5"), "{}", stdout(&out));
+}
+
+#[test]
+fn duplicate_ids_and_missing_payloads_are_reported() {
+    let dir = Dir::new("dup_ids");
+    dir.copy_data();
+    dir.write(
+        "pipeline.ron",
+        "(output: \"bundle\", jobs: [Heightfield(id: \"a\", input: \"data/cylinders.png\"), Heightfield(id: \"b\", input: \"data/cylinders.png\")])",
+    );
+    dir.run(&["bake"]);
+    edit_manifest(&dir, "id: \"b\"", "id: \"a\"");
+    let out = dir.run_expecting(&["validate", "bundle"], 1);
+    assert!(stdout(&out).contains("duplicate asset id"), "{}", stdout(&out));
+    edit_manifest(&dir, "id: \"a\"", "id: \"c\"");
+    let text = String::from_utf8(dir.read("bundle/bundle.ron")).unwrap();
+    let file = text.split("file: \"").nth(1).unwrap().split('"').next().unwrap().to_string();
+    std::fs::remove_file(dir.path(&format!("bundle/{file}"))).unwrap();
+    let out = dir.run_expecting(&["validate", "bundle"], 1);
+    assert!(stdout(&out).contains(&file), "{}", stdout(&out));
+}

@@ -1,0 +1,189 @@
+//! Baking the default pipeline, incremental re-runs, determinism, crash safety, export.
+
+use std::time::Duration;
+
+use crate::util::{Dir, snapshot, stderr, stdout};
+
+fn job_ids(pipeline: &str) -> Vec<String> {
+    // Independent of the library's parser: every `id: "..."` in the file.
+    pipeline.split("id: \"").skip(1).map(|s| s.split('"').next().unwrap().to_string()).collect()
+}
+
+#[test]
+fn default_pipeline_bakes_validates_and_inspects() {
+    let dir = Dir::with_default_pipeline("default_pipeline");
+    let out = dir.run(&["bake"]);
+    let ids = job_ids(&String::from_utf8(dir.read("pipeline.ron")).unwrap());
+    assert!(ids.len() >= 7, "{ids:?}");
+    assert!(stdout(&out).contains(&format!("baked {}, skipped 0", ids.len())), "{}", stdout(&out));
+    dir.run(&["validate", "bundle"]);
+
+    let out = dir.run(&["inspect", "bundle", "--format", "json"]);
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let assets = json["assets"].as_array().unwrap();
+    for id in &ids {
+        let a = assets.iter().find(|a| a["id"] == id.as_str()).unwrap_or_else(|| panic!("{id} missing"));
+        assert_eq!(a["kind"], "heightfield");
+        assert!(a["format"].as_str().unwrap().ends_with("Float"));
+        assert_eq!(a["dimensions"].as_array().unwrap().len(), 4);
+    }
+    let terrain = assets.iter().find(|a| a["id"] == "terrain").unwrap();
+    assert_eq!(terrain["dimensions"], serde_json::json!([512, 512, 1, 1]));
+
+    // `validate PIPELINE` checks without baking.
+    let out = dir.run(&["validate", "pipeline.ron", "--format", "json"]);
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["valid"], true);
+    assert_eq!(json["jobs"].as_array().unwrap().len(), ids.len());
+}
+
+#[test]
+fn rebake_skips_everything_and_leaves_the_bundle_byte_identical() {
+    let dir = Dir::with_default_pipeline("rebake");
+    dir.run(&["bake"]);
+    let first = snapshot(&dir.path("bundle"));
+    let out = dir.run(&["bake"]);
+    assert!(stdout(&out).contains("baked 0, skipped"), "{}", stdout(&out));
+    assert_eq!(snapshot(&dir.path("bundle")), first);
+}
+
+#[test]
+fn thread_count_does_not_change_a_byte() {
+    let one = Dir::with_default_pipeline("jobs1");
+    let two = Dir::with_default_pipeline("jobs2");
+    one.run(&["bake", "--jobs", "1"]);
+    two.run(&["bake", "--jobs", "2"]);
+    assert_eq!(snapshot(&one.path("bundle")), snapshot(&two.path("bundle")));
+}
+
+#[test]
+fn flipped_payload_byte_fails_validation_naming_the_asset() {
+    let dir = Dir::with_default_pipeline("flip");
+    dir.run(&["bake"]);
+    let payload = std::fs::read_dir(dir.path("bundle"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .find(|n| n.starts_with("reptile."))
+        .unwrap();
+    let mut bytes = dir.read(&format!("bundle/{payload}"));
+    let i = bytes.len() / 2;
+    bytes[i] ^= 0x01;
+    dir.write(&format!("bundle/{payload}"), bytes);
+    let out = dir.run_expecting(&["validate", "bundle"], 1);
+    assert!(stdout(&out).contains("`reptile`") && stdout(&out).contains("BLAKE3"), "{}", stdout(&out));
+    let out = dir.run_expecting(&["validate", "bundle", "--format", "json"], 1);
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["valid"], false);
+    assert_eq!(json["problems"][0]["asset"], "reptile");
+    // The tampered asset is baked again rather than reused.
+    let out = dir.run(&["bake"]);
+    assert!(stdout(&out).contains("baked 1,"), "{}", stdout(&out));
+    dir.run(&["validate", "bundle"]);
+}
+
+#[test]
+fn changed_input_rebakes_one_job_and_removes_its_stale_payload() {
+    let dir = Dir::with_default_pipeline("changed_input");
+    dir.run(&["bake"]);
+    let before = snapshot(&dir.path("bundle"));
+    // Replace cylinders.png by another valid grayscale PNG.
+    std::fs::copy(dir.path("data/relief_bricks.png"), dir.path("data/cylinders.png")).unwrap();
+    let out = dir.run(&["bake"]);
+    assert!(stdout(&out).contains("baked 1,") && stdout(&out).contains("removed 1"), "{}", stdout(&out));
+    let after = snapshot(&dir.path("bundle"));
+    assert_eq!(after.len(), before.len());
+    let old: Vec<_> = before.keys().filter(|k| k.starts_with("cylinders.")).collect();
+    assert!(!after.contains_key(old[0].as_str()), "stale payload kept");
+    dir.run(&["validate", "bundle"]);
+}
+
+#[test]
+fn build_script_entry_watches_the_pipeline_and_every_input() {
+    let dir = Dir::with_default_pipeline("build_script");
+    let report = hikage_bake::run::run_pipeline(&dir.path("pipeline.ron"), &Default::default()).unwrap();
+    let watched: Vec<String> = report.watched.iter().map(|p| p.display().to_string()).collect();
+    assert!(watched[0].ends_with("pipeline.ron"));
+    for f in ["cylinders.png", "dunes.exr", "terrain.png"] {
+        assert!(watched.iter().any(|w| w.ends_with(f)), "{f} not watched: {watched:?}");
+    }
+}
+
+#[test]
+fn killed_bake_leaves_the_old_or_the_new_bundle() {
+    let dir = Dir::new("killed");
+    dir.copy_data();
+    // Many jobs over the largest input so a kill lands in the middle of the run.
+    let jobs: String = (0..24)
+        .map(|i| format!("Heightfield(id: \"t{i}\", input: \"data/terrain.png\", height_scale: {}),\n", i + 1))
+        .collect();
+    dir.write("pipeline.ron", format!("(output: \"bundle\", jobs: [{jobs}])"));
+    dir.run(&["bake"]);
+    let old = snapshot(&dir.path("bundle"));
+    // The new bundle: every input changed.
+    let old_png = dir.read("data/terrain.png");
+    let new_png = dir.read("data/reptile.png");
+    let reference = Dir::new("killed_reference");
+    reference.write("data/terrain.png", &new_png);
+    reference.write("pipeline.ron", dir.read("pipeline.ron"));
+    reference.run(&["bake"]);
+    let new = snapshot(&reference.path("bundle"));
+    assert_ne!(old.get("bundle.ron"), new.get("bundle.ron"));
+
+    for (i, delay_ms) in [0u64, 5, 15, 30, 60, 120, 250].into_iter().enumerate() {
+        // Alternate the inputs so kills land both on old→new and new→old bakes.
+        dir.write("data/terrain.png", if i % 2 == 0 { &new_png } else { &old_png });
+        let mut child = dir.command(&["bake", "--jobs", "1"]).spawn().unwrap();
+        std::thread::sleep(Duration::from_millis(delay_ms));
+        let _ = child.kill(); // SIGKILL on unix
+        let _ = child.wait();
+        dir.run(&["validate", "bundle"]);
+        let manifest = std::fs::read(dir.path("bundle/bundle.ron")).unwrap();
+        assert!(
+            Some(&manifest) == old.get("bundle.ron") || Some(&manifest) == new.get("bundle.ron"),
+            "after a kill at {delay_ms} ms the manifest is neither the old nor the new one"
+        );
+    }
+    // A rerun completes, and the result is exactly the reference for the current inputs.
+    dir.write("data/terrain.png", &new_png);
+    dir.run(&["bake"]);
+    dir.run(&["validate", "bundle"]);
+    assert_eq!(snapshot(&dir.path("bundle")), new);
+}
+
+#[test]
+fn raw_and_exr_export_give_back_the_source_heights() {
+    let dir = Dir::with_default_pipeline("export");
+    dir.run(&["bake"]);
+    // Independent reference: decode the PNG with the image crate.
+    let png = image::open(dir.path("data/terrain.png")).unwrap().into_luma16();
+    let expected: Vec<f32> = png.pixels().map(|p| p.0[0] as f32 / 65535.0).collect();
+
+    dir.run(&["export", "bundle", "terrain", "--out", "terrain.f32", "--raw", "--channel", "height"]);
+    let raw = dir.read("terrain.f32");
+    assert_eq!(raw.len(), 512 * 512 * 4);
+    let values: Vec<f32> = raw.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+    assert_eq!(values, expected);
+
+    dir.run(&["export", "bundle", "terrain", "--out", "terrain.exr"]);
+    let image = exr::prelude::read_first_flat_layer_from_file(dir.path("terrain.exr")).unwrap();
+    let ch = &image.layer_data.channel_data.list[0];
+    assert_eq!(ch.name.to_string(), "height");
+    match &ch.sample_data {
+        exr::prelude::FlatSamples::F32(v) => assert_eq!(v, &expected),
+        other => panic!("expected f32 samples, found {other:?}"),
+    }
+
+    let out = dir.run_expecting(&["export", "bundle", "terrain", "--out", "x.f32", "--raw", "--channel", "slope"], 1);
+    assert!(stderr(&out).contains("no channel \"slope\""), "{}", stderr(&out));
+    let out = dir.run_expecting(&["export", "bundle", "nope", "--out", "x.f32"], 1);
+    assert!(stderr(&out).contains("no asset `nope`"), "{}", stderr(&out));
+}
+
+#[test]
+fn usage_errors_exit_2_and_help_documents_exit_codes() {
+    let dir = Dir::new("usage");
+    dir.run_expecting(&["frobnicate"], 2);
+    dir.run_expecting(&["bake", "--jobs", "0"], 2);
+    let out = dir.run(&["--help"]);
+    assert!(stdout(&out).contains("3  I/O error"), "{}", stdout(&out));
+}

@@ -1,0 +1,127 @@
+//! A small harness in the manner of ripgrep's `tests/util.rs`: a fresh directory per test, a
+//! command for the built binary, and assertion failures that print the command, the working
+//! directory and its files, the exit status, stdout and stderr.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The repository root (where `data/` and `pipeline.ron` live).
+pub fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A fresh working directory for one test.
+pub struct Dir {
+    pub root: PathBuf,
+}
+
+impl Dir {
+    /// Creates (or empties) `target/tmp/hikage-tests/<name>`.
+    pub fn new(name: &str) -> Dir {
+        let root = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("hikage-tests").join(name);
+        let _ = std::fs::remove_dir_all(&root);
+        std::fs::create_dir_all(&root).unwrap();
+        Dir { root }
+    }
+
+    /// A directory holding the default `pipeline.ron` and a copy of `data/`.
+    pub fn with_default_pipeline(name: &str) -> Dir {
+        let dir = Dir::new(name);
+        std::fs::copy(repo().join("pipeline.ron"), dir.root.join("pipeline.ron")).unwrap();
+        dir.copy_data();
+        dir
+    }
+
+    /// Copies every file of the repository's `data/` into `data/` here.
+    pub fn copy_data(&self) {
+        std::fs::create_dir_all(self.root.join("data")).unwrap();
+        for e in std::fs::read_dir(repo().join("data")).unwrap() {
+            let e = e.unwrap();
+            if e.file_type().unwrap().is_file() {
+                std::fs::copy(e.path(), self.root.join("data").join(e.file_name())).unwrap();
+            }
+        }
+    }
+
+    pub fn path(&self, rel: &str) -> PathBuf {
+        self.root.join(rel)
+    }
+
+    pub fn write(&self, rel: &str, bytes: impl AsRef<[u8]>) {
+        let p = self.root.join(rel);
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        std::fs::write(p, bytes).unwrap();
+    }
+
+    pub fn read(&self, rel: &str) -> Vec<u8> {
+        std::fs::read(self.root.join(rel)).unwrap()
+    }
+
+    /// A command running the built `hikage` in this directory.
+    pub fn command(&self, args: &[&str]) -> Command {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_hikage"));
+        c.args(args).current_dir(&self.root);
+        c
+    }
+
+    /// Runs `hikage args`, asserting exit code 0.
+    pub fn run(&self, args: &[&str]) -> Output {
+        self.run_expecting(args, 0)
+    }
+
+    /// Runs `hikage args`, asserting the exit code and that nothing panicked.
+    pub fn run_expecting(&self, args: &[&str], code: i32) -> Output {
+        let out = self.command(args).output().unwrap();
+        if out.status.code() != Some(code) || String::from_utf8_lossy(&out.stderr).contains("panicked") {
+            panic!("{}", self.explain(args, &out, &format!("expected exit code {code} and no panic")));
+        }
+        out
+    }
+
+    /// A report of a command's run for assertion messages.
+    pub fn explain(&self, args: &[&str], out: &Output, expectation: &str) -> String {
+        format!(
+            "\n\n==== {expectation} ====\ncommand: hikage {}\ncwd: {}\nfiles:\n{}\nstatus: {:?}\n---- stdout ----\n{}\n---- stderr ----\n{}\n",
+            args.join(" "),
+            self.root.display(),
+            self.listing().join("\n"),
+            out.status,
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr),
+        )
+    }
+
+    /// Every file under the directory with its size.
+    pub fn listing(&self) -> Vec<String> {
+        snapshot(&self.root).iter().map(|(p, b)| format!("  {p} ({} bytes)", b.len())).collect()
+    }
+}
+
+/// Every file under `dir` (relative path → bytes).
+pub fn snapshot(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    fn walk(base: &Path, dir: &Path, out: &mut BTreeMap<String, Vec<u8>>) {
+        let Ok(entries) = std::fs::read_dir(dir) else { return };
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                walk(base, &p, out);
+            } else {
+                out.insert(p.strip_prefix(base).unwrap().display().to_string(), std::fs::read(&p).unwrap_or_default());
+            }
+        }
+    }
+    let mut out = BTreeMap::new();
+    walk(dir, dir, &mut out);
+    out
+}
+
+/// stdout of a run as text.
+pub fn stdout(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// stderr of a run as text.
+pub fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
