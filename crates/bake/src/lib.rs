@@ -22,6 +22,7 @@ mod error;
 pub mod export;
 mod hash;
 pub mod heightfield;
+pub mod horizon;
 pub mod jobs;
 pub mod pipeline;
 pub mod run;

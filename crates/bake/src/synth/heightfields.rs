@@ -74,16 +74,19 @@ pub fn dune_ripples(n: u32) -> Vec<f32> {
     })
 }
 
-/// Rough terrain (not tileable): ridged multi-fractal mountains, two fault scarps (height steps
-/// of 0.08 and 0.05 over about one texel) and a cliff band, so that relief changes by much more
-/// than a texel spacing between neighbours as on real DEMs.
+/// Rough terrain (not tileable): ridged multi-fractal mountains band-limited to wavelengths of
+/// 4 texels and more (as a real DEM is), two fault scarps (height steps of 0.08 and 0.05 over
+/// about one texel) and a cliff band. With a height scale of ~20 texel sizes, neighbouring
+/// texels differ by about a texel spacing, and scarps and cliffs by many.
 pub fn terrain(n: u32) -> Vec<f32> {
     let nf = n as f32;
     let raw = grid(n, |x, y| {
         let (u, v) = (x / nf, y / nf);
         let mut ridged = 0.0;
         let (mut amp, mut freq, mut norm) = (1.0, 4.0, 0.0);
-        for o in 0..7 {
+        // Band-limited like a real DEM: the finest octave spans at least 4 texels.
+        let octaves = ((nf / 16.0).log2().floor() as u32 + 1).max(1);
+        for o in 0..octaves {
             let r = 1.0 - (2.0 * value_noise(u * freq, v * freq, 0, 31 + o) - 1.0).abs();
             ridged += amp * r * r;
             norm += amp;

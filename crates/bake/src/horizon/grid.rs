@@ -1,0 +1,104 @@
+//! Canonical orientation: every azimuth is handled as a ray stepping one column to the right
+//! per step and `m ∈ [-1, 1]` rows, on a transposed and/or mirrored copy of the heightfield.
+
+/// A heightfield in world height units (`height_scale × sample`; the offset cancels in every
+/// slope), row-major.
+#[derive(Clone, Debug)]
+pub(crate) struct Grid {
+    pub w: usize,
+    pub h: usize,
+    pub data: Vec<f32>,
+    /// World units per texel along columns and rows of this grid.
+    pub sx: f64,
+    pub sy: f64,
+}
+
+impl Grid {
+    #[inline]
+    pub fn at(&self, row: usize, col: usize) -> f32 {
+        self.data[row * self.w + col]
+    }
+}
+
+/// How a canonical grid maps to the original: `transpose` swaps `u` and `v`, then `flip`
+/// mirrors the (new) columns.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Orientation {
+    pub transpose: bool,
+    pub flip: bool,
+}
+
+impl Orientation {
+    pub const ALL: [Orientation; 4] = [
+        Orientation { transpose: false, flip: false },
+        Orientation { transpose: false, flip: true },
+        Orientation { transpose: true, flip: false },
+        Orientation { transpose: true, flip: true },
+    ];
+
+    /// The orientation and row slope `m` for azimuth `phi` (radians, texel space, from +u
+    /// toward +v): the canonical ray steps `(+1 column, m rows)`.
+    pub fn for_azimuth(phi: f64) -> (Orientation, f64) {
+        let snap = |x: f64| if x.abs() < 1e-12 { 0.0 } else { x };
+        // Exact 0 and ±1 for axis and diagonal directions, so their samples fall on texels.
+        let snap_m = |m: f64| if (m.abs() - 1.0).abs() < 1e-12 { m.signum() } else { snap(m) };
+        let (c, s) = (snap(phi.cos()), snap(phi.sin()));
+        if c.abs() >= s.abs() {
+            (Orientation { transpose: false, flip: c < 0.0 }, snap_m(s / c.abs()))
+        } else {
+            (Orientation { transpose: true, flip: s < 0.0 }, snap_m(c / s.abs()))
+        }
+    }
+
+    /// Builds the canonical grid of a `width`×`height` field.
+    pub fn grid(self, width: usize, height: usize, world: &[f32], sx: f64, sy: f64) -> Grid {
+        let (w, h, gsx, gsy) = if self.transpose { (height, width, sy, sx) } else { (width, height, sx, sy) };
+        let mut data = vec![0.0; w * h];
+        for row in 0..h {
+            for col in 0..w {
+                data[row * w + col] = world[self.original(width, height, col, row)];
+            }
+        }
+        Grid { w, h, data, sx: gsx, sy: gsy }
+    }
+
+    /// Index in the original row-major field of canonical `(col, row)`.
+    #[inline]
+    pub fn original(self, width: usize, height: usize, col: usize, row: usize) -> usize {
+        let (w, _) = if self.transpose { (height, width) } else { (width, height) };
+        let col = if self.flip { w - 1 - col } else { col };
+        if self.transpose { col * width + row } else { row * width + col }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn canonical_ray_matches_the_azimuth() {
+        // For each azimuth, one canonical step (+1 column, m rows) must map back to a step along
+        // (cos φ, sin φ) in the original texel space.
+        let (width, height) = (7usize, 5usize);
+        for k in 0..32 {
+            let phi = std::f64::consts::TAU * k as f64 / 32.0;
+            let (o, m) = Orientation::for_azimuth(phi);
+            assert!(m.abs() <= 1.0 + 1e-12);
+            let (w, _) = if o.transpose { (height, width) } else { (width, height) };
+            let orig = |col: usize, row: usize| {
+                let i = o.original(width, height, col, row);
+                ((i % width) as f64, (i / width) as f64)
+            };
+            // A step of one column at row 0, and one row at column 0.
+            let (u0, v0) = orig(1, 1);
+            let (u1, v1) = orig(2, 1);
+            let (u2, v2) = orig(1, 2);
+            let col_step = (u1 - u0, v1 - v0);
+            let row_step = (u2 - u0, v2 - v0);
+            let step = (col_step.0 + m * row_step.0, col_step.1 + m * row_step.1);
+            let norm = (step.0 * step.0 + step.1 * step.1).sqrt();
+            assert!((step.0 / norm - phi.cos()).abs() < 1e-9 && (step.1 / norm - phi.sin()).abs() < 1e-9, "k={k}");
+            assert!(w > 0);
+        }
+    }
+}

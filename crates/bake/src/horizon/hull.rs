@@ -1,0 +1,241 @@
+//! Upper convex hulls of line samples, for horizon queries from a point to their left.
+//!
+//! The horizon of a point seen along a line is a tangent to the upper convex hull of the
+//! samples ahead of it (Dozier 1981; Timonen & Westerholm 2010): samples under the hull can never
+//! be a horizon for any point behind them. Both hulls here answer "the sample of greatest slope
+//! from origin `o`", with `o` left of every sample (smaller `x`): slopes along an upper hull in
+//! `x` order rise to the tangent vertex and fall after it, so the search walks from the previous
+//! answer, which for neighbouring origins is almost always within a step or two.
+
+/// A sample on a line: `x` in canonical columns, `h` in world height units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Pt {
+    pub x: f32,
+    pub h: f32,
+}
+
+/// The best hull vertex seen from an origin: its slope numerator and run (`h - o.h`,
+/// `x - o.x`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Hit {
+    pub rise: f32,
+    pub run: f32,
+}
+
+impl Hit {
+    /// True when `self` has a strictly greater slope than `other` (runs are positive).
+    #[inline]
+    pub fn steeper_than(&self, other: &Hit) -> bool {
+        self.rise * other.run > other.rise * self.run
+    }
+}
+
+#[inline]
+fn hit(o: Pt, p: Pt) -> Hit {
+    Hit { rise: p.h - o.h, run: p.x - o.x }
+}
+
+/// Walks a hull stored in `x` order (`pts[i].x` increasing with `i`) from `hint` to the vertex
+/// of greatest slope from `o`.
+#[inline]
+fn walk(pts: &[Pt], o: Pt, hint: &mut usize) -> Option<Hit> {
+    if pts.is_empty() {
+        return None;
+    }
+    let mut i = (*hint).min(pts.len() - 1);
+    let mut best = hit(o, pts[i]);
+    while i + 1 < pts.len() {
+        let next = hit(o, pts[i + 1]);
+        if !next.steeper_than(&best) {
+            break;
+        }
+        best = next;
+        i += 1;
+    }
+    while i > 0 {
+        let prev = hit(o, pts[i - 1]);
+        if !prev.steeper_than(&best) {
+            break;
+        }
+        best = prev;
+        i -= 1;
+    }
+    *hint = i;
+    Some(best)
+}
+
+/// True when `mid` lies on or below the segment `left`–`right` (`left.x < mid.x < right.x`).
+#[inline]
+fn not_above(left: Pt, mid: Pt, right: Pt) -> bool {
+    (mid.h - left.h) * (right.x - left.x) <= (right.h - left.h) * (mid.x - left.x)
+}
+
+/// Upper hull of samples inserted right to left (each new sample has the smallest `x`).
+/// Stored with the farthest sample first, so `pts` is in decreasing `x` order.
+#[derive(Default)]
+pub(crate) struct SuffixHull {
+    pts: Vec<Pt>,
+}
+
+impl SuffixHull {
+    pub fn clear(&mut self) {
+        self.pts.clear();
+    }
+
+    /// Adds a sample left of all others.
+    #[inline]
+    pub fn push_front(&mut self, p: Pt) {
+        while self.pts.len() >= 2 {
+            let a = self.pts[self.pts.len() - 1];
+            let b = self.pts[self.pts.len() - 2];
+            if not_above(p, a, b) {
+                self.pts.pop();
+            } else {
+                break;
+            }
+        }
+        self.pts.push(p);
+    }
+
+    /// The vertex of greatest slope from `o`, walking from `hint` (updated).
+    #[inline]
+    pub fn tangent(&self, o: Pt, hint: &mut usize) -> Option<Hit> {
+        // Walk in increasing x, i.e. from the end of `pts` backwards: mirror the index.
+        let n = self.pts.len();
+        if n == 0 {
+            return None;
+        }
+        let mut i = n - 1 - (*hint).min(n - 1);
+        let at = |k: usize| self.pts[n - 1 - k];
+        let mut best = hit(o, at(i));
+        while i + 1 < n {
+            let next = hit(o, at(i + 1));
+            if !next.steeper_than(&best) {
+                break;
+            }
+            best = next;
+            i += 1;
+        }
+        while i > 0 {
+            let prev = hit(o, at(i - 1));
+            if !prev.steeper_than(&best) {
+                break;
+            }
+            best = prev;
+            i -= 1;
+        }
+        *hint = n - 1 - i;
+        Some(best)
+    }
+}
+
+/// Upper hull of samples inserted left to right, with an undo log so the most recent
+/// insertions can be taken back in reverse order (a prefix that shrinks one sample at a time).
+#[derive(Default)]
+pub(crate) struct PrefixHull {
+    pts: Vec<Pt>,
+    popped: Vec<Pt>,
+    log: Vec<u32>,
+}
+
+const SKIPPED: u32 = u32::MAX;
+
+impl PrefixHull {
+    pub fn clear(&mut self) {
+        self.pts.clear();
+        self.popped.clear();
+        self.log.clear();
+    }
+
+    /// Adds a sample right of all others (`None`: a sample outside the map, logged so that
+    /// [`undo`](Self::undo) stays in step).
+    #[inline]
+    pub fn push_back(&mut self, q: Option<Pt>) {
+        let Some(q) = q else {
+            self.log.push(SKIPPED);
+            return;
+        };
+        let mut n = 0;
+        while self.pts.len() >= 2 {
+            let a = self.pts[self.pts.len() - 1];
+            let b = self.pts[self.pts.len() - 2];
+            if not_above(b, a, q) {
+                self.popped.push(a);
+                self.pts.pop();
+                n += 1;
+            } else {
+                break;
+            }
+        }
+        self.pts.push(q);
+        self.log.push(n);
+    }
+
+    /// Takes back the most recent insertion.
+    #[inline]
+    pub fn undo(&mut self) {
+        match self.log.pop() {
+            None | Some(SKIPPED) => {}
+            Some(n) => {
+                self.pts.pop();
+                for _ in 0..n {
+                    let p = self.popped.pop().expect("undo log matches the popped samples");
+                    self.pts.push(p);
+                }
+            }
+        }
+    }
+
+    /// The vertex of greatest slope from `o`, walking from `hint` (updated).
+    #[inline]
+    pub fn tangent(&self, o: Pt, hint: &mut usize) -> Option<Hit> {
+        walk(&self.pts, o, hint)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn brute(points: &[Pt], o: Pt) -> f32 {
+        points.iter().map(|p| (p.h - o.h) / (p.x - o.x)).fold(f32::NEG_INFINITY, f32::max)
+    }
+
+    fn pseudo(i: u32) -> f32 {
+        ((i.wrapping_mul(2654435761) >> 8) % 1000) as f32 / 100.0
+    }
+
+    #[test]
+    fn both_hulls_find_the_steepest_sample() {
+        let pts: Vec<Pt> =
+            (0..200).map(|i| Pt { x: i as f32 + 10.0, h: pseudo(i) + (i as f32 * 0.05).sin() }).collect();
+        // Suffix: insert right to left, query from origins further left.
+        let mut s = SuffixHull::default();
+        for (n, p) in pts.iter().enumerate().rev() {
+            s.push_front(*p);
+            for oh in [-5.0f32, 0.0, 3.0, 12.0] {
+                let o = Pt { x: p.x - 1.5, h: oh };
+                let h = s.tangent(o, &mut 0).unwrap();
+                let want = brute(&pts[n..], o);
+                assert!((h.rise / h.run - want).abs() < 1e-5, "suffix at {n}: {} vs {want}", h.rise / h.run);
+            }
+        }
+        // Prefix: insert left to right, then undo one at a time.
+        let mut p = PrefixHull::default();
+        for q in &pts {
+            p.push_back(Some(*q));
+            p.push_back(None);
+        }
+        for len in (1..=pts.len()).rev() {
+            for oh in [-5.0f32, 4.0, 20.0] {
+                let o = Pt { x: 3.0, h: oh };
+                let h = p.tangent(o, &mut 0).unwrap();
+                let want = brute(&pts[..len], o);
+                assert!((h.rise / h.run - want).abs() < 1e-5, "prefix of {len}");
+            }
+            p.undo();
+            p.undo();
+        }
+        assert!(p.tangent(Pt { x: 0.0, h: 0.0 }, &mut 0).is_none());
+    }
+}

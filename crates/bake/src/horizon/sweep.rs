@@ -1,0 +1,173 @@
+//! The far field: horizons beyond the near field from a line sweep with convex-hull stacks.
+//!
+//! Seed 000 stores the horizon `tan β` and its distance `d` per texel and direction; computing
+//! them by marching every ray costs `O(N·D·R)`. Here, for one canonical direction (one column
+//! right, `m` rows per step), lines parallel to the direction are laid one row apart; each line
+//! samples the bilinear surface where it crosses texel columns. Swept right to left, a line's
+//! samples ahead of the current column form an upper convex hull (Dozier 1981; Timonen &
+//! Westerholm 2010), and the horizon from any origin left of them is the tangent to that hull.
+//!
+//! Each texel lies between two lines; it asks both for the tangent from its *own* centre and
+//! height (not the line's), over the samples at column distance `K+1 ..= R` (`K`: near field,
+//! traced exactly elsewhere; `R`: reach). The two tangent columns are candidates: the texel's own
+//! ray is then sampled exactly around them (see `mod.rs`), so a far-field horizon is always a
+//! real sample of the ray, never an interpolation between two lines' answers.
+//! A finite reach is a sliding window: columns are cut into blocks of the window length, and the
+//! window is the suffix of one block (a hull built right to left, reset per block) plus a
+//! shrinking prefix of the next (a hull built left to right and undone one sample at a time).
+//!
+//! Cost: `O(N)` per direction, amortised, with a tangent walk per texel and line that starts from
+//! the previous answer; memory `O(W)` per line plus three `W×H` accumulators.
+
+use super::grid::Grid;
+use super::hull::{Hit, PrefixHull, Pt, SuffixHull};
+use super::steps::{Steps, wrap_index};
+
+/// Far-field candidates of one direction, canonical layout: per texel, the column displacement
+/// of the tangent vertex found on the line below it and on the line above it (0: none).
+pub(crate) struct Far {
+    pub candidates: Vec<[u32; 2]>,
+}
+
+/// Parameters of one canonical direction.
+pub(crate) struct Line<'a> {
+    /// Rows per column step, and the crossing tables (covering `w + reach` columns).
+    pub steps: &'a Steps,
+    /// Columns covered exactly by the near field.
+    pub near: usize,
+    /// Largest column displacement a horizon may have (`None`: to the map edge).
+    pub reach: Option<usize>,
+    /// Rays continue on the torus.
+    pub wrap: bool,
+}
+
+pub(crate) fn far_field(g: &Grid, line: &Line) -> Far {
+    let mut far = Far { candidates: vec![[0, 0]; g.w * g.h] };
+    if line.reach.is_some_and(|r| r <= line.near) {
+        return far;
+    }
+    let lines: Vec<i64> = if line.wrap {
+        (0..g.h as i64).collect()
+    } else {
+        let span = line.steps.m * (g.w as f64 - 1.0);
+        let lo = (-span.max(0.0)).floor() as i64 - 1;
+        let hi = g.h as i64 + (-span).max(0.0).ceil() as i64 + 1;
+        (lo..=hi).collect()
+    };
+    let mut sweeper = Sweeper::default();
+    for k in lines {
+        sweeper.run(g, line, k, &mut far);
+    }
+    far
+}
+
+#[derive(Default)]
+struct Sweeper {
+    suffix: SuffixHull,
+    prefix: PrefixHull,
+    /// Walk hints per slot (texel above / below the line), for the suffix and prefix hulls.
+    hints: [[usize; 2]; 2],
+}
+
+impl Sweeper {
+    /// The sample of line `k` at (unwrapped) column `c`, if it lies on the map.
+    #[inline(always)]
+    fn point(g: &Grid, line: &Line, k: i64, c: usize) -> Option<Pt> {
+        let r = k + line.steps.col_r[c] as i64;
+        let f = line.steps.col_f[c];
+        let (r0, r1, col) = if line.wrap {
+            let h = g.h as i64;
+            (wrap_index(r, h), wrap_index(r + 1, h), if c < g.w { c } else { c % g.w })
+        } else {
+            if c >= g.w || r < 0 || r >= g.h as i64 || (r + 1 >= g.h as i64 && f > 0.0) {
+                return None;
+            }
+            (r as usize, (r as usize + 1).min(g.h - 1), c)
+        };
+        let a = g.at(r0, col);
+        let h = if f > 0.0 { a + f * (g.at(r1, col) - a) } else { a };
+        Some(Pt { x: c as f32, h })
+    }
+
+    fn run(&mut self, g: &Grid, line: &Line, k: i64, far: &mut Far) {
+        let (w, near) = (g.w, line.near);
+        self.suffix.clear();
+        self.prefix.clear();
+        match line.reach {
+            None => {
+                for i in (0..w).rev() {
+                    let a = i + near + 1;
+                    if a < w {
+                        if let Some(p) = Self::point(g, line, k, a) {
+                            self.suffix.push_front(p);
+                        }
+                    }
+                    self.texels(g, line, k, i, far);
+                }
+            }
+            Some(reach) => {
+                let block = reach - near;
+                let start = |b: usize| b * block;
+                let a0 = w + near;
+                let mut b = a0 / block;
+                for c in (a0..start(b + 1)).rev() {
+                    if let Some(p) = Self::point(g, line, k, c) {
+                        self.suffix.push_front(p);
+                    }
+                }
+                for c in start(b + 1)..start(b + 1) + (a0 - start(b)) {
+                    self.prefix.push_back(Self::point(g, line, k, c));
+                }
+                for i in (0..w).rev() {
+                    let a = i + near + 1;
+                    if a != a0 {
+                        if a < start(b) {
+                            b -= 1;
+                            self.suffix.clear();
+                            self.prefix.clear();
+                            for c in start(b + 1)..start(b + 1) + block - 1 {
+                                self.prefix.push_back(Self::point(g, line, k, c));
+                            }
+                        } else {
+                            self.prefix.undo();
+                        }
+                        if let Some(p) = Self::point(g, line, k, a) {
+                            self.suffix.push_front(p);
+                        }
+                    }
+                    self.texels(g, line, k, i, far);
+                }
+            }
+        }
+    }
+
+    /// Queries line `k` at column `i` for the two texels it brackets, each from its own centre
+    /// and height: the texel above the line (slot 0) and the texel below (slot 1). The texels
+    /// then sample their own rays around the tangent columns exactly.
+    #[inline(always)]
+    fn texels(&mut self, g: &Grid, line: &Line, k: i64, i: usize, far: &mut Far) {
+        let on_line = line.steps.col_f[i] == 0.0;
+        let ja = k + line.steps.col_r[i] as i64 + (!on_line) as i64;
+        for (j, slot) in [(ja, 0usize), (ja - 1, 1usize)] {
+            if slot == 1 && on_line {
+                continue;
+            }
+            let j = if line.wrap {
+                wrap_index(j, g.h as i64)
+            } else if (0..g.h as i64).contains(&j) {
+                j as usize
+            } else {
+                continue;
+            };
+            let o = Pt { x: i as f32, h: g.at(j, i) };
+            let [hs, hp] = &mut self.hints[slot];
+            let best = match (self.suffix.tangent(o, hs), self.prefix.tangent(o, hp)) {
+                (Some(s), Some(p)) => Some(if p.steeper_than(&s) { p } else { s }),
+                (s, p) => s.or(p),
+            };
+            if let Some(Hit { run, .. }) = best {
+                far.candidates[j * g.w + i][slot] = run as u32;
+            }
+        }
+    }
+}

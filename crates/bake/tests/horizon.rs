@@ -1,0 +1,277 @@
+//! Horizon maps against an independent brute force: a ray per texel over the bilinear surface,
+//! sampled at every grid-line crossing, written in plain texel space (no canonical orientation,
+//! no hulls, no stencil). Accuracy gates from the horizon issue, in degrees of β.
+
+use hikage_bake::heightfield::Heightfield;
+use hikage_bake::horizon::{self, Edge, HorizonFormat, HorizonSettings, HorizonTexture, OPEN_SKY_SLOPE};
+use hikage_bake::synth;
+
+/// World height of sample (row, col), or `None` outside a clamped map.
+fn sample(hf: &Heightfield, wrap: bool, row: i64, col: i64) -> Option<f64> {
+    let (w, h) = (hf.width as i64, hf.height as i64);
+    let (r, c) = if wrap { (row.rem_euclid(h), col.rem_euclid(w)) } else { (row, col) };
+    if r < 0 || r >= h || c < 0 || c >= w {
+        return None;
+    }
+    Some(hf.samples[(r * w + c) as usize] as f64 * hf.height_scale as f64)
+}
+
+/// Linear interpolation along a grid line at fractional position `x` between integer knots,
+/// `at(knot)` giving heights; snaps positions within 1e-9 of a knot onto it.
+fn along(x: f64, at: impl Fn(i64) -> Option<f64>) -> Option<f64> {
+    let mut k = x.floor();
+    let mut f = x - k;
+    if f > 1.0 - 1e-9 {
+        k += 1.0;
+        f = 0.0;
+    }
+    if f < 1e-9 {
+        return at(k as i64);
+    }
+    Some(at(k as i64)? * (1.0 - f) + at(k as i64 + 1)? * f)
+}
+
+/// Brute-force `(tan β, d)` of texel (row, col) in direction `phi`.
+fn brute(hf: &Heightfield, s: &HorizonSettings, row: usize, col: usize, phi: f64) -> (f64, f64) {
+    let wrap = s.edge == Edge::Wrap;
+    let (c, sn) = (phi.cos(), phi.sin());
+    let c = if c.abs() < 1e-12 { 0.0 } else { c };
+    let sn = if sn.abs() < 1e-12 { 0.0 } else { sn };
+    let (sx, sy) = (hf.texel_size.0 as f64, hf.texel_size.1 as f64);
+    let len = ((sx * c).powi(2) + (sy * sn).powi(2)).sqrt();
+    // Largest ray parameter (texels along the ray).
+    let mut s_max = match (s.max_distance, wrap) {
+        (Some(md), _) => md as f64 / len,
+        (None, true) => {
+            if c.abs() >= sn.abs() {
+                hf.width as f64 / c.abs()
+            } else {
+                hf.height as f64 / sn.abs()
+            }
+        }
+        (None, false) => f64::INFINITY,
+    };
+    if !wrap {
+        // Stop at the edge of the surface's domain [0.5, W-0.5] x [0.5, H-0.5].
+        let (u0, v0) = (col as f64 + 0.5, row as f64 + 0.5);
+        let exit = |p0: f64, d: f64, hi: f64| {
+            if d > 0.0 {
+                (hi - 0.5 - p0) / d
+            } else if d < 0.0 {
+                (0.5 - p0) / d
+            } else {
+                f64::INFINITY
+            }
+        };
+        s_max = s_max.min(exit(u0, c, hf.width as f64)).min(exit(v0, sn, hf.height as f64));
+    }
+    let h0 = sample(hf, wrap, row as i64, col as i64).unwrap();
+    let mut params = Vec::new();
+    for (d, is_u) in [(c, true), (sn, false)] {
+        if d != 0.0 {
+            let mut n = 1.0;
+            while n / d.abs() <= s_max + 1e-9 {
+                params.push((n / d.abs(), is_u));
+                n += 1.0;
+            }
+        }
+    }
+    let (mut best, mut best_d) = (f64::NEG_INFINITY, 0.0);
+    for (t, on_vertical_line) in params {
+        let (du, dv) = (t * c, t * sn);
+        let h = if on_vertical_line {
+            let colx = col as i64 + du.round() as i64;
+            along(row as f64 + dv, |r| sample(hf, wrap, r, colx))
+        } else {
+            let rowx = row as i64 + dv.round() as i64;
+            along(col as f64 + du, |cc| sample(hf, wrap, rowx, cc))
+        };
+        if let Some(h) = h {
+            let slope = (h - h0) / (t * len);
+            if slope > best {
+                best = slope;
+                best_d = t * len;
+            }
+        }
+    }
+    (best, best_d)
+}
+
+#[derive(Debug)]
+struct Stats {
+    max_axis: f64,
+    max: f64,
+    p99: f64,
+    mean: f64,
+    dist_ok: f64,
+}
+
+fn compare(hf: &Heightfield, s: &HorizonSettings) -> Stats {
+    let baked: HorizonTexture = horizon::bake(hf, s, &|_, _| {}).unwrap();
+    let (w, h, d) = (hf.width as usize, hf.height as usize, s.directions as usize);
+    let (mut errs, mut max_axis) = (Vec::new(), 0.0f64);
+    let (mut dist_total, mut dist_ok) = (0usize, 0usize);
+    for k in 0..d {
+        let phi = std::f64::consts::TAU * k as f64 / d as f64;
+        let axis = (4 * k) % d == 0;
+        let len = ((hf.texel_size.0 as f64 * phi.cos()).powi(2) + (hf.texel_size.1 as f64 * phi.sin()).powi(2)).sqrt();
+        for row in 0..h {
+            for col in 0..w {
+                let (bs, bd) = horizon::decode(&baked, k, row, col);
+                let (rs, rd) = brute(hf, s, row, col, phi);
+                let open_b = bs <= OPEN_SKY_SLOPE;
+                let open_r = rs == f64::NEG_INFINITY;
+                let err = if open_b && open_r {
+                    0.0
+                } else if open_b != open_r {
+                    180.0
+                } else {
+                    ((bs as f64).atan().to_degrees() - rs.atan().to_degrees()).abs()
+                };
+                errs.push(err);
+                if axis {
+                    max_axis = max_axis.max(err);
+                }
+                if !open_r && rs.atan().to_degrees() > 2.0 {
+                    dist_total += 1;
+                    if (bd as f64 - rd).abs() <= len + 1e-3 {
+                        dist_ok += 1;
+                    }
+                }
+            }
+        }
+    }
+    errs.sort_by(f64::total_cmp);
+    let n = errs.len();
+    Stats {
+        max_axis,
+        max: errs[n - 1],
+        p99: errs[(n as f64 * 0.99) as usize],
+        mean: errs.iter().sum::<f64>() / n as f64,
+        dist_ok: if dist_total == 0 { 1.0 } else { dist_ok as f64 / dist_total as f64 },
+    }
+}
+
+fn gates(name: &str, st: &Stats) {
+    println!("{name}: {st:?}");
+    assert!(st.max_axis <= 0.05, "{name}: axis max {} > 0.05°", st.max_axis);
+    assert!(st.max <= 2.0, "{name}: max {} > 2°", st.max);
+    assert!(st.p99 <= 0.5, "{name}: p99 {} > 0.5°", st.p99);
+    assert!(st.mean <= 0.05, "{name}: mean {} > 0.05°", st.mean);
+    assert!(st.dist_ok >= 0.9, "{name}: distance within 1 texel for {} < 90%", st.dist_ok);
+}
+
+fn field(n: u32, samples: Vec<f32>, texel: (f32, f32), scale: f32) -> Heightfield {
+    let mut hf = Heightfield::from_samples(n, n, samples);
+    hf.texel_size = texel;
+    hf.height_scale = scale;
+    hf
+}
+
+fn settings(directions: u32, edge: Edge) -> HorizonSettings {
+    HorizonSettings { directions, edge, format: HorizonFormat::Rg32Float, ..Default::default() }
+}
+
+#[test]
+fn smooth_map_meets_the_gates_in_both_edge_modes() {
+    let hf = field(128, synth::dune_ripples(128), (1.0, 1.0), 12.0);
+    gates("smooth wrap", &compare(&hf, &settings(32, Edge::Wrap)));
+    gates("smooth clamp", &compare(&hf, &settings(32, Edge::Clamp)));
+}
+
+#[test]
+fn rough_terrain_meets_the_gates() {
+    // Relief comparable to the texel spacing: 0–2000 m over 80 m texels, scarps and cliffs.
+    let hf = field(128, synth::terrain(128), (80.0, 80.0), 2000.0);
+    gates("rough clamp", &compare(&hf, &settings(32, Edge::Clamp)));
+}
+
+#[test]
+fn rough_tileable_map_and_anisotropic_texels_meet_the_gates() {
+    let hf = field(96, synth::reptile_cells(96), (1.0, 1.0), 6.0);
+    gates("reptile wrap", &compare(&hf, &settings(24, Edge::Wrap)));
+    let hf = field(96, synth::terrain(96), (80.0, 30.0), 1500.0);
+    gates("anisotropic clamp", &compare(&hf, &settings(24, Edge::Clamp)));
+}
+
+#[test]
+fn max_distance_limits_the_search() {
+    let hf = field(96, synth::terrain(96), (10.0, 10.0), 300.0);
+    let mut s = settings(16, Edge::Clamp);
+    s.max_distance = Some(250.0);
+    gates("max distance clamp", &compare(&hf, &s));
+    // Wrap is for tileable maps: a non-tileable map wrapped has a cliff at the seam.
+    let hf = field(96, synth::reptile_cells(96), (1.0, 1.0), 6.0);
+    let mut s = settings(16, Edge::Wrap);
+    s.max_distance = Some(40.0);
+    gates("max distance wrap", &compare(&hf, &s));
+}
+
+#[test]
+fn flat_map_has_zero_horizons_and_open_sky_at_clamped_edges() {
+    let hf = field(32, vec![0.25; 32 * 32], (1.0, 1.0), 3.0);
+    let baked = horizon::bake(&hf, &settings(8, Edge::Clamp), &|_, _| {}).unwrap();
+    for k in 0..8 {
+        for row in 0..32 {
+            for col in 0..32 {
+                let (s, d) = horizon::decode(&baked, k, row, col);
+                // Direction 0 (+u): the last column has no sample ahead.
+                if k == 0 && col == 31 {
+                    assert_eq!((s, d), (OPEN_SKY_SLOPE, 0.0));
+                } else if s != OPEN_SKY_SLOPE {
+                    assert_eq!(s, 0.0, "k {k} ({row}, {col})");
+                }
+            }
+        }
+    }
+    let baked = horizon::bake(&hf, &settings(8, Edge::Wrap), &|_, _| {}).unwrap();
+    assert!((0..8).all(|k| horizon::decode(&baked, k, 5, 7).0 == 0.0));
+}
+
+#[test]
+fn single_wall_has_the_analytic_horizon() {
+    // A wall of height H one texel wide at column 40 on a flat map, texel size 2: looking +u
+    // from column c < 40, the horizon is the wall top: tan β = H / (2 (40 − c)), d = 2 (40 − c).
+    let (n, wall, height) = (64u32, 40usize, 10.0f32);
+    let mut samples = vec![0.0; 64 * 64];
+    for row in 0..64 {
+        samples[row * 64 + wall] = 1.0;
+    }
+    let hf = field(n, samples, (2.0, 2.0), height);
+    for edge in [Edge::Clamp, Edge::Wrap] {
+        let baked = horizon::bake(&hf, &settings(4, edge), &|_, _| {}).unwrap();
+        for col in 0..wall {
+            let (s, d) = horizon::decode(&baked, 0, 17, col);
+            let run = 2.0 * (wall - col) as f32;
+            assert!((s - height / run).abs() < 1e-5, "{edge:?} col {col}: {s} vs {}", height / run);
+            assert!((d - run).abs() < 1e-4, "{edge:?} col {col}: d {d} vs {run}");
+        }
+        // Looking −u (k = 2) from just right of the wall.
+        let (s, d) = horizon::decode(&baked, 2, 9, wall + 3);
+        assert!((s - height / 6.0).abs() < 1e-5 && (d - 6.0).abs() < 1e-4, "{s} {d}");
+    }
+}
+
+#[test]
+fn output_is_identical_at_any_thread_count() {
+    let hf = field(64, synth::terrain(64), (5.0, 5.0), 100.0);
+    let s = HorizonSettings { directions: 16, ..Default::default() };
+    let one =
+        rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| horizon::bake(&hf, &s, &|_, _| {}));
+    let two =
+        rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap().install(|| horizon::bake(&hf, &s, &|_, _| {}));
+    assert_eq!(one.unwrap(), two.unwrap());
+}
+
+#[test]
+fn bad_settings_are_refused() {
+    let hf = field(8, vec![0.0; 64], (1.0, 1.0), 1.0);
+    for s in [
+        HorizonSettings { directions: 0, ..Default::default() },
+        HorizonSettings { directions: 257, ..Default::default() },
+        HorizonSettings { max_distance: Some(0.0), ..Default::default() },
+        HorizonSettings { max_distance: Some(f32::NAN), ..Default::default() },
+    ] {
+        assert!(horizon::bake(&hf, &s, &|_, _| {}).is_err(), "{s:?}");
+    }
+}
