@@ -229,7 +229,12 @@ fn unknown_major_version_is_refused_and_never_overwritten() {
     let dir = baked("major");
     edit_manifest(&dir, "major: 1", "major: 9");
     let out = dir.run_expecting(&["validate", "bundle"], 1);
-    assert!(stderr(&out).contains("9.0") && stderr(&out).contains("1.0"), "{}", stderr(&out));
+    let current = hikage_bundle::FormatVersion::CURRENT.to_string();
+    assert!(
+        stderr(&out).contains("format 9.1") && stderr(&out).contains(&format!("format {current}")),
+        "{}",
+        stderr(&out)
+    );
     let out = dir.run_expecting(&["inspect", "bundle"], 1);
     assert!(stderr(&out).contains("bundle.ron"), "{}", stderr(&out));
     let before = snapshot(&dir.path("bundle"));

@@ -22,13 +22,24 @@ fn default_pipeline_bakes_validates_and_inspects() {
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let assets = json["assets"].as_array().unwrap();
     for id in &ids {
-        let a = assets.iter().find(|a| a["id"] == id.as_str()).unwrap_or_else(|| panic!("{id} missing"));
-        assert_eq!(a["kind"], "heightfield");
-        assert!(a["format"].as_str().unwrap().ends_with("Float"));
-        assert_eq!(a["dimensions"].as_array().unwrap().len(), 4);
+        // A job makes the asset `id` or assets `id.<part>`.
+        let made: Vec<_> = assets
+            .iter()
+            .filter(|a| a["id"] == id.as_str() || a["id"].as_str().unwrap().starts_with(&format!("{id}.")))
+            .collect();
+        assert!(!made.is_empty(), "{id} made nothing");
+        for a in made {
+            assert!(["heightfield", "horizon", "ambient_occlusion"].contains(&a["kind"].as_str().unwrap()), "{a}");
+            assert!(a["format"].as_str().unwrap().ends_with("Float"));
+            assert_eq!(a["dimensions"].as_array().unwrap().len(), 4);
+        }
     }
-    let terrain = assets.iter().find(|a| a["id"] == "terrain").unwrap();
-    assert_eq!(terrain["dimensions"], serde_json::json!([512, 512, 1, 1]));
+    let find = |id: &str| assets.iter().find(|a| a["id"] == id).unwrap_or_else(|| panic!("{id} missing"));
+    assert_eq!(find("terrain.height")["dimensions"], serde_json::json!([512, 512, 1, 1]));
+    assert_eq!(find("terrain.horizon")["dimensions"], serde_json::json!([512, 512, 32, 1]));
+    assert_eq!(find("terrain.horizon")["dimension"], "D3");
+    assert_eq!(find("terrain.horizon")["channels"], serde_json::json!(["slope", "distance"]));
+    assert_eq!(find("reptile.ao")["kind"], "ambient_occlusion");
 
     // `validate PIPELINE` checks without baking.
     let out = dir.run(&["validate", "pipeline.ron", "--format", "json"]);
@@ -63,18 +74,18 @@ fn flipped_payload_byte_fails_validation_naming_the_asset() {
     let payload = std::fs::read_dir(dir.path("bundle"))
         .unwrap()
         .map(|e| e.unwrap().file_name().into_string().unwrap())
-        .find(|n| n.starts_with("reptile."))
+        .find(|n| n.starts_with("relief_bricks."))
         .unwrap();
     let mut bytes = dir.read(&format!("bundle/{payload}"));
     let i = bytes.len() / 2;
     bytes[i] ^= 0x01;
     dir.write(&format!("bundle/{payload}"), bytes);
     let out = dir.run_expecting(&["validate", "bundle"], 1);
-    assert!(stdout(&out).contains("`reptile`") && stdout(&out).contains("BLAKE3"), "{}", stdout(&out));
+    assert!(stdout(&out).contains("`relief_bricks`") && stdout(&out).contains("BLAKE3"), "{}", stdout(&out));
     let out = dir.run_expecting(&["validate", "bundle", "--format", "json"], 1);
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(json["valid"], false);
-    assert_eq!(json["problems"][0]["asset"], "reptile");
+    assert_eq!(json["problems"][0]["asset"], "relief_bricks");
     // The tampered asset is baked again rather than reused.
     let out = dir.run(&["bake"]);
     assert!(stdout(&out).contains("baked 1,"), "{}", stdout(&out));
@@ -86,13 +97,13 @@ fn changed_input_rebakes_one_job_and_removes_its_stale_payload() {
     let dir = Dir::with_default_pipeline("changed_input");
     dir.run(&["bake"]);
     let before = snapshot(&dir.path("bundle"));
-    // Replace cylinders.png by another valid grayscale PNG.
-    std::fs::copy(dir.path("data/relief_bricks.png"), dir.path("data/cylinders.png")).unwrap();
+    // Replace relief_fbm.png by another valid grayscale PNG.
+    std::fs::copy(dir.path("data/relief_bricks.png"), dir.path("data/relief_fbm.png")).unwrap();
     let out = dir.run(&["bake"]);
     assert!(stdout(&out).contains("baked 1,") && stdout(&out).contains("removed 1"), "{}", stdout(&out));
     let after = snapshot(&dir.path("bundle"));
     assert_eq!(after.len(), before.len());
-    let old: Vec<_> = before.keys().filter(|k| k.starts_with("cylinders.")).collect();
+    let old: Vec<_> = before.keys().filter(|k| k.starts_with("relief_fbm.")).collect();
     assert!(!after.contains_key(old[0].as_str()), "stale payload kept");
     dir.run(&["validate", "bundle"]);
 }
@@ -158,13 +169,13 @@ fn raw_and_exr_export_give_back_the_source_heights() {
     let png = image::open(dir.path("data/terrain.png")).unwrap().into_luma16();
     let expected: Vec<f32> = png.pixels().map(|p| p.0[0] as f32 / 65535.0).collect();
 
-    dir.run(&["export", "bundle", "terrain", "--out", "terrain.f32", "--raw", "--channel", "height"]);
+    dir.run(&["export", "bundle", "terrain.height", "--out", "terrain.f32", "--raw", "--channel", "height"]);
     let raw = dir.read("terrain.f32");
     assert_eq!(raw.len(), 512 * 512 * 4);
     let values: Vec<f32> = raw.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
     assert_eq!(values, expected);
 
-    dir.run(&["export", "bundle", "terrain", "--out", "terrain.exr"]);
+    dir.run(&["export", "bundle", "terrain.height", "--out", "terrain.exr"]);
     let image = exr::prelude::read_first_flat_layer_from_file(dir.path("terrain.exr")).unwrap();
     let ch = &image.layer_data.channel_data.list[0];
     assert_eq!(ch.name.to_string(), "height");
@@ -173,7 +184,8 @@ fn raw_and_exr_export_give_back_the_source_heights() {
         other => panic!("expected f32 samples, found {other:?}"),
     }
 
-    let out = dir.run_expecting(&["export", "bundle", "terrain", "--out", "x.f32", "--raw", "--channel", "slope"], 1);
+    let out =
+        dir.run_expecting(&["export", "bundle", "terrain.height", "--out", "x.f32", "--raw", "--channel", "slope"], 1);
     assert!(stderr(&out).contains("no channel \"slope\""), "{}", stderr(&out));
     let out = dir.run_expecting(&["export", "bundle", "nope", "--out", "x.f32"], 1);
     assert!(stderr(&out).contains("no asset `nope`"), "{}", stderr(&out));
@@ -186,4 +198,83 @@ fn usage_errors_exit_2_and_help_documents_exit_codes() {
     dir.run_expecting(&["bake", "--jobs", "0"], 2);
     let out = dir.run(&["--help"]);
     assert!(stdout(&out).contains("3  I/O error"), "{}", stdout(&out));
+}
+
+#[test]
+fn horizon_one_shot_exports_direction_major_maps() {
+    let dir = Dir::new("horizon_one_shot");
+    dir.copy_data();
+    for format in ["rg32f", "rg16f", "rg8"] {
+        let out = format!("b_{format}");
+        let args = [
+            "horizon",
+            "data/cylinders.png",
+            "--out",
+            &out,
+            "--directions",
+            "8",
+            "--height-scale",
+            "4",
+            "--format",
+            format,
+            "--ao",
+        ];
+        dir.run(&args);
+        dir.run(&["validate", &out]);
+        for channel in ["slope", "distance"] {
+            let file = format!("{out}/{channel}.f32");
+            dir.run(&["export", &out, "cylinders.horizon", "--raw", "--channel", channel, "--out", &file]);
+            let raw = dir.read(&file);
+            assert_eq!(raw.len(), 8 * 128 * 128 * 4, "D×H×W f32");
+        }
+    }
+    // The three formats agree within their precision: direction-major layout, same values.
+    let read = |f: &str| -> Vec<f32> {
+        dir.read(f).chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect()
+    };
+    let exact = read("b_rg32f/slope.f32");
+    let half = read("b_rg16f/slope.f32");
+    let byte = read("b_rg8/slope.f32");
+    for i in 0..exact.len() {
+        let (e, h, b) = (exact[i].atan().to_degrees(), half[i].atan().to_degrees(), byte[i].atan().to_degrees());
+        assert!((e - h).abs() < 0.1, "texel {i}: rg16f {h}° vs rg32f {e}°");
+        assert!((e - b).abs() <= 0.36, "texel {i}: rg8 {b}° vs rg32f {e}° (step 0.71°)");
+    }
+    // Direction 0 looks along +u: at row 64, the texel left of a cylinder wall sees it.
+    let texel = |k: usize, row: usize, col: usize| exact[(k * 128 + row) * 128 + col];
+    assert!(texel(0, 16, 2) > 0.0, "a cylinder ahead along +u");
+    // Rebaking the same command skips; other assets in the bundle are kept.
+    let out = dir.run(&[
+        "horizon",
+        "data/cylinders.png",
+        "--out",
+        "b_rg8",
+        "--directions",
+        "8",
+        "--height-scale",
+        "4",
+        "--format",
+        "rg8",
+        "--ao",
+    ]);
+    assert!(stdout(&out).contains("skipped 1"), "{}", stdout(&out));
+}
+
+#[test]
+fn horizon_one_shot_refuses_bad_settings() {
+    let dir = Dir::new("horizon_bad");
+    dir.copy_data();
+    for (args, needle) in [
+        (vec!["--directions", "0"], "directions must be 1 to 256"),
+        (vec!["--directions", "257"], "directions must be 1 to 256"),
+        (vec!["--texel-size", "0,1"], "texel_size"),
+        (vec!["--texel-size", "inf"], "texel_size"),
+        (vec!["--max-distance", "-1"], "max_distance"),
+    ] {
+        let mut full = vec!["horizon", "data/cylinders.png", "--out", "b"];
+        full.extend(args);
+        let out = dir.run_expecting(&full, 1);
+        assert!(stderr(&out).contains(needle), "{}", dir.explain(&full, &out, needle));
+        assert!(!dir.path("b/bundle.ron").exists());
+    }
 }

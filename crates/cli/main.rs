@@ -12,7 +12,10 @@ use anyhow::Context;
 use clap::{Parser, Subcommand, ValueEnum};
 use hikage_bake::BakeError;
 use hikage_bake::export::{ExportFormat, export_texture};
-use hikage_bake::run::{RunOptions, check_pipeline, run_pipeline};
+use hikage_bake::horizon::HorizonFormat;
+use hikage_bake::pipeline::{HorizonJob, Job};
+use hikage_bake::run::{RunOptions, check_pipeline, run_one_job, run_pipeline};
+use hikage_bundle::EdgeMode;
 use hikage_bundle::{Bundle, BundleError};
 
 const EXIT_CODES: &str = "\
@@ -63,6 +66,55 @@ enum Command {
         #[arg(long, value_enum, default_value_t = OutputFormat::Text)]
         format: OutputFormat,
     },
+    /// Bake horizon and distance maps of one heightfield into BUNDLE (created, or its assets
+    /// `<id>.height`, `<id>.horizon`, `<id>.ao` added or replaced).
+    #[command(after_help = EXIT_CODES)]
+    Horizon {
+        /// Heightfield image (PNG 8/16-bit or OpenEXR).
+        input: PathBuf,
+        /// Bundle directory.
+        #[arg(long)]
+        out: PathBuf,
+        /// Asset id prefix (default: the input's file stem).
+        #[arg(long)]
+        id: Option<String>,
+        /// Azimuths D (1–256); direction k has φ = 2πk/D.
+        #[arg(long, default_value_t = 32)]
+        directions: u32,
+        /// World units per texel: SX or SX,SY.
+        #[arg(long, value_name = "SX[,SY]", value_parser = parse_texel_size)]
+        texel_size: Option<(f32, f32)>,
+        /// World height = offset + scale × sample (integer images normalised to [0, 1] first).
+        #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+        height_scale: f32,
+        /// See --height-scale.
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        height_offset: f32,
+        /// wrap: rays continue on the torus (tileable maps); clamp: rays stop at the edge.
+        #[arg(long, value_enum, default_value_t = EdgeArg::Wrap)]
+        edge: EdgeArg,
+        /// Largest horizon distance in world units.
+        #[arg(long, allow_negative_numbers = true)]
+        max_distance: Option<f32>,
+        /// Storage: rg16f (default), rg32f, or rg8 (the paper's memory; β step 0.71°).
+        #[arg(long, value_enum, default_value_t = FormatArg::Rg16f)]
+        format: FormatArg,
+        /// Also write an ambient-occlusion map derived from the horizons.
+        #[arg(long)]
+        ao: bool,
+        /// Texels per ray traced exactly before the line sweep takes over (0–64).
+        #[arg(long, default_value_t = hikage_bake::horizon::DEFAULT_NEAR_FIELD)]
+        near_field: u32,
+        /// Channel of the input image to take.
+        #[arg(long)]
+        channel: Option<String>,
+        /// Worker threads (default: one per core).
+        #[arg(long, short = 'j', value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+        jobs: Option<u16>,
+        /// Bake even if unchanged; replace an unreadable bundle.
+        #[arg(long)]
+        force: bool,
+    },
     /// Export a texture asset as OpenEXR (one layer per slice) or raw little-endian f32.
     #[command(after_help = EXIT_CODES)]
     Export {
@@ -81,6 +133,29 @@ enum Command {
         #[arg(long)]
         channel: Option<String>,
     },
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum EdgeArg {
+    Wrap,
+    Clamp,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum FormatArg {
+    Rg16f,
+    Rg32f,
+    Rg8,
+}
+
+fn parse_texel_size(s: &str) -> Result<(f32, f32), String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    let num = |p: &str| p.trim().parse::<f32>().map_err(|e| format!("{p:?}: {e}"));
+    match parts.as_slice() {
+        [x] => num(x).map(|x| (x, x)),
+        [x, y] => Ok((num(x)?, num(y)?)),
+        _ => Err("expected SX or SX,SY".into()),
+    }
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -129,7 +204,57 @@ fn run(cli: Cli) -> Result<(), Failure> {
         Command::Validate { path, format } => validate(&path, format),
         Command::Inspect { bundle, format } => inspect(&bundle, format),
         Command::Export { bundle, asset, out, raw, channel } => export(&bundle, &asset, &out, raw, channel.as_deref()),
+        Command::Horizon {
+            input,
+            out,
+            id,
+            directions,
+            texel_size,
+            height_scale,
+            height_offset,
+            edge,
+            max_distance,
+            format,
+            ao,
+            near_field,
+            channel,
+            jobs,
+            force,
+        } => {
+            let id =
+                id.unwrap_or_else(|| input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default());
+            let mut job = HorizonJob::new(&id, input);
+            job.channel = channel;
+            job.texel_size = texel_size.unwrap_or((1.0, 1.0));
+            job.height_scale = height_scale;
+            job.height_offset = height_offset;
+            job.directions = directions;
+            job.edge = match edge {
+                EdgeArg::Wrap => EdgeMode::Wrap,
+                EdgeArg::Clamp => EdgeMode::Clamp,
+            };
+            job.max_distance = max_distance;
+            job.format = match format {
+                FormatArg::Rg16f => HorizonFormat::Rg16Float,
+                FormatArg::Rg32f => HorizonFormat::Rg32Float,
+                FormatArg::Rg8 => HorizonFormat::Rg8Unorm,
+            };
+            job.ao = ao;
+            job.near_field = near_field;
+            one_shot(Job::Horizon(job), &out, force, jobs)
+        }
     }
+}
+
+fn one_shot(job: Job, out: &Path, force: bool, jobs: Option<u16>) -> Result<(), Failure> {
+    let observer = progress::Bars::new();
+    let options = RunOptions { force, threads: jobs.map(usize::from), observer: &observer };
+    let report =
+        run_one_job(&job, out, &options).with_context(|| format!("baking `{}` into {}", job.id(), out.display()));
+    observer.finish();
+    let report = report?;
+    println!("{}: baked {}, skipped {}", report.bundle.display(), report.baked.len(), report.skipped.len());
+    Ok(())
 }
 
 fn bake(pipeline: &Path, force: bool, jobs: Option<u16>) -> Result<(), Failure> {

@@ -61,6 +61,8 @@ pub fn export_texture(
     out: &Path,
 ) -> Result<ExportSummary, BakeError> {
     let tex = bundle.read_texture(id)?;
+    let asset = bundle.asset(id)?;
+    let values = physical_values(asset, &tex);
     let names = &tex.desc.channels;
     let picked: Vec<usize> = match channel {
         Some(c) => vec![resolve_channel(names, c).ok_or_else(|| BakeError::Setting {
@@ -73,8 +75,8 @@ pub fn export_texture(
     let (w, h, _) = tex.desc.level_extent(0);
     let slices = tex.desc.slices();
     let bytes = match format {
-        ExportFormat::Raw => raw_bytes(&tex, &picked),
-        ExportFormat::Exr => exr_bytes(&tex, &picked, out)?,
+        ExportFormat::Raw => raw_bytes(&tex, &values, &picked),
+        ExportFormat::Exr => exr_bytes(&tex, &values, &picked, out)?,
     };
     write_via_temp(out, &bytes)?;
     Ok(ExportSummary {
@@ -86,9 +88,22 @@ pub fn export_texture(
     })
 }
 
-fn raw_bytes(tex: &TextureData, picked: &[usize]) -> Vec<u8> {
+/// Level 0 in physical units, `[slice][row][col][channel]`: stored values, except 8-bit horizon
+/// maps, which are decoded to `tan β` and world distance.
+fn physical_values(asset: &hikage_bundle::Asset, tex: &TextureData) -> Vec<f32> {
+    let mut values = tex.to_f32(0);
+    if let hikage_bundle::Settings::Horizon(h) = &asset.settings {
+        for pair in values.chunks_exact_mut(2) {
+            let (s, d) = h.decode(tex.desc.format, pair[0], pair[1]);
+            pair[0] = s;
+            pair[1] = d;
+        }
+    }
+    values
+}
+
+fn raw_bytes(tex: &TextureData, all: &[f32], picked: &[usize]) -> Vec<u8> {
     let n = tex.desc.format.channels();
-    let all = tex.to_f32(0);
     let mut out = Vec::with_capacity(all.len() / n * picked.len() * 4);
     for texel in all.chunks_exact(n) {
         for &c in picked {
@@ -98,12 +113,11 @@ fn raw_bytes(tex: &TextureData, picked: &[usize]) -> Vec<u8> {
     out
 }
 
-fn exr_bytes(tex: &TextureData, picked: &[usize], out: &Path) -> Result<Vec<u8>, BakeError> {
+fn exr_bytes(tex: &TextureData, all: &[f32], picked: &[usize], out: &Path) -> Result<Vec<u8>, BakeError> {
     let (w, h, _) = tex.desc.level_extent(0);
     let slices = tex.desc.slices() as usize;
     let n = tex.desc.format.channels();
     let per_slice = w as usize * h as usize;
-    let all = tex.to_f32(0);
     let mut layers = Vec::with_capacity(slices);
     for s in 0..slices {
         let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();

@@ -19,6 +19,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::BakeError;
 pub use crate::jobs::heightfield::{HeightFormat, HeightfieldJob};
+pub use crate::jobs::horizon::HorizonJob;
 
 /// A parsed pipeline file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -57,6 +58,8 @@ impl Default for InputLimits {
 pub enum Job {
     /// Import a heightfield image as a `heightfield` asset.
     Heightfield(HeightfieldJob),
+    /// Bake horizon and distance maps (and optionally ambient occlusion) from a heightfield.
+    Horizon(HorizonJob),
 }
 
 /// A pipeline with the file it came from.
@@ -148,7 +151,7 @@ mod tests {
             Path::new("p.ron"),
         )
         .unwrap();
-        let Job::Heightfield(h) = &p.jobs[0];
+        let Job::Heightfield(h) = &p.jobs[0] else { panic!("expected a heightfield job") };
         assert_eq!(h.texel_size, (1.0, 1.0));
         assert_eq!(h.channel.as_deref(), Some("R"));
 

@@ -90,37 +90,74 @@ pub fn run_loaded(loaded: &LoadedPipeline, options: &RunOptions) -> Result<RunRe
     report.watched.push(loaded.path.clone());
     let total = loaded.pipeline.jobs.len();
     for (index, job) in loaded.pipeline.jobs.iter().enumerate() {
-        let id = job.id().to_string();
-        options.observer.job_started(index, total, &id, job.kind());
-        report.watched.extend(job.inputs(&loaded.base_dir));
-        let hash = job.input_hash(&loaded.base_dir, &loaded.pipeline.limits)?;
-
-        let reusable: Option<Vec<_>> =
-            if options.force { None } else { job.outputs().iter().map(|o| writer.reusable(o, &hash)).collect() };
-        if let Some(assets) = reusable {
-            for a in assets {
-                writer.keep(a);
-            }
-            report.skipped.push(id.clone());
-            options.observer.job_finished(&id, true);
-            continue;
-        }
-
-        let progress = |done: u64, all: u64| options.observer.progress(&id, done, all);
-        let ctx = JobContext { base_dir: &loaded.base_dir, limits: &loaded.pipeline.limits, progress: &progress };
-        for asset in job.bake(&ctx)? {
-            match &asset.payload {
-                BakedPayload::Texture(t) => writer.put_texture(&asset.id, asset.kind, asset.settings, &hash, t)?,
-                BakedPayload::Mesh(m) => writer.put_mesh(&asset.id, asset.kind, asset.settings, &hash, m)?,
-            };
-        }
-        report.baked.push(id.clone());
-        options.observer.job_finished(&id, false);
+        run_job(&mut writer, job, &loaded.base_dir, &loaded.pipeline.limits, options, (index, total), &mut report)?;
     }
     let summary = writer.commit()?;
     report.removed = summary.removed;
     report.manifest_written = summary.manifest_written;
     Ok(report)
+}
+
+/// Bakes one job into `writer`, or keeps its assets when its input hash is unchanged.
+fn run_job(
+    writer: &mut BundleWriter,
+    job: &crate::pipeline::Job,
+    base_dir: &Path,
+    limits: &crate::pipeline::InputLimits,
+    options: &RunOptions,
+    (index, total): (usize, usize),
+    report: &mut RunReport,
+) -> Result<(), BakeError> {
+    let id = job.id().to_string();
+    options.observer.job_started(index, total, &id, job.kind());
+    report.watched.extend(job.inputs(base_dir));
+    let hash = job.input_hash(base_dir, limits)?;
+    let reusable: Option<Vec<_>> =
+        if options.force { None } else { job.outputs().iter().map(|o| writer.reusable(o, &hash)).collect() };
+    if let Some(assets) = reusable {
+        for a in assets {
+            writer.keep(a);
+        }
+        report.skipped.push(id.clone());
+        options.observer.job_finished(&id, true);
+        return Ok(());
+    }
+    let progress = |done: u64, all: u64| options.observer.progress(&id, done, all);
+    let ctx = JobContext { base_dir, limits, progress: &progress };
+    for asset in job.bake(&ctx)? {
+        match &asset.payload {
+            BakedPayload::Texture(t) => writer.put_texture(&asset.id, asset.kind, asset.settings, &hash, t)?,
+            BakedPayload::Mesh(m) => writer.put_mesh(&asset.id, asset.kind, asset.settings, &hash, m)?,
+        };
+    }
+    report.baked.push(id.clone());
+    options.observer.job_finished(&id, false);
+    Ok(())
+}
+
+/// Runs one job against the bundle in `bundle` (created if missing), adding or replacing the
+/// job's assets and keeping every other asset: the one-shot commands (`hikage horizon …`).
+/// Relative input paths are resolved against the current directory.
+pub fn run_one_job(job: &crate::pipeline::Job, bundle: &Path, options: &RunOptions) -> Result<RunReport, BakeError> {
+    job.check().map_err(|message| BakeError::Setting {
+        path: PathBuf::from("<command line>"),
+        job: job.id().to_string(),
+        message,
+    })?;
+    with_threads(options.threads, || {
+        let mut writer = if options.force {
+            BundleWriter::open_ignoring_previous(bundle, WriteMode::Update)?
+        } else {
+            BundleWriter::open(bundle, WriteMode::Update)?
+        };
+        let mut report = RunReport { bundle: bundle.to_path_buf(), ..Default::default() };
+        let limits = crate::pipeline::InputLimits::default();
+        run_job(&mut writer, job, Path::new(""), &limits, options, (0, 1), &mut report)?;
+        let summary = writer.commit()?;
+        report.removed = summary.removed;
+        report.manifest_written = summary.manifest_written;
+        Ok(report)
+    })
 }
 
 /// What `validate PIPELINE` found: the jobs and inputs it checked.

@@ -208,32 +208,59 @@ pub(crate) fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(St
             bad(format!("byte_length {} is above the limit of {}", a.byte_length, limits.max_payload_bytes));
         }
         match (&a.payload, a.kind) {
-            (Payload::Texture(t), AssetKind::Heightfield | AssetKind::Texture) => {
+            (Payload::Texture(_), AssetKind::Mesh) => bad("kind mesh does not match its texture payload".into()),
+            (Payload::Texture(t), kind) => {
                 if let Err(m) = t.check(limits) {
                     bad(m);
                 }
-                if a.kind == AssetKind::Heightfield && (t.dimension != TextureDimension::D2 || t.format.channels() != 1)
-                {
-                    bad("a heightfield must be a one-channel D2 texture".into());
+                let shape_ok = match kind {
+                    AssetKind::Heightfield | AssetKind::AmbientOcclusion => {
+                        t.dimension == TextureDimension::D2 && t.format.channels() == 1
+                    }
+                    AssetKind::Horizon => t.dimension == TextureDimension::D3 && t.format.channels() == 2,
+                    _ => true,
+                };
+                if !shape_ok {
+                    bad(format!(
+                        "a {} must be {}",
+                        kind.name(),
+                        match kind {
+                            AssetKind::Horizon => "a two-channel D3 texture",
+                            _ => "a one-channel D2 texture",
+                        }
+                    ));
+                }
+                if let (AssetKind::Horizon, Settings::Horizon(h)) = (kind, &a.settings) {
+                    if h.directions != t.depth {
+                        bad(format!("{} directions but the texture is {} deep", h.directions, t.depth));
+                    }
                 }
             }
             (Payload::Mesh(_), AssetKind::Mesh) => {}
-            (_, kind) => bad(format!("kind {} does not match its payload type", kind.name())),
+            (Payload::Mesh(_), kind) => bad(format!("kind {} does not match its mesh payload", kind.name())),
         }
-        match (&a.settings, a.kind) {
-            (Settings::Heightfield(h), AssetKind::Heightfield) => {
-                let (sx, sy) = h.texel_size;
-                if !(sx.is_finite() && sy.is_finite() && sx > 0.0 && sy > 0.0) {
-                    bad(format!("texel_size ({sx}, {sy}) must be finite and positive"));
-                }
-                if !(h.height_scale.is_finite() && h.height_offset.is_finite()) {
-                    bad("height_scale and height_offset must be finite".into());
-                }
+        let settings_ok = matches!(
+            (&a.settings, a.kind),
+            (Settings::Heightfield(_), AssetKind::Heightfield)
+                | (Settings::Horizon(_), AssetKind::Horizon)
+                | (Settings::AmbientOcclusion(_), AssetKind::AmbientOcclusion)
+                | (Settings::Generic, AssetKind::Texture | AssetKind::Mesh)
+        );
+        if !settings_ok {
+            bad(format!("settings do not match kind {}", a.kind.name()));
+        }
+        let texel = match &a.settings {
+            Settings::Heightfield(h) => Some((h.texel_size, h.height_scale, h.height_offset)),
+            Settings::Horizon(h) => Some((h.texel_size, h.height_scale, 0.0)),
+            _ => None,
+        };
+        if let Some(((sx, sy), scale, offset)) = texel {
+            if !(sx.is_finite() && sy.is_finite() && sx > 0.0 && sy > 0.0) {
+                bad(format!("texel_size ({sx}, {sy}) must be finite and positive"));
             }
-            (Settings::Heightfield(_), kind) | (Settings::Generic, kind @ AssetKind::Heightfield) => {
-                bad(format!("settings do not match kind {}", kind.name()));
+            if !(scale.is_finite() && offset.is_finite()) {
+                bad("height_scale and height_offset must be finite".into());
             }
-            (Settings::Generic, _) => {}
         }
     }
     problems

@@ -40,7 +40,10 @@ mod writer;
 pub use bundle::Bundle;
 pub use error::BundleError;
 pub use limits::Limits;
-pub use manifest::{Asset, AssetKind, FormatVersion, HeightfieldSettings, MANIFEST_FILE, Manifest, Payload, Settings};
+pub use manifest::{
+    AmbientOcclusionSettings, Asset, AssetKind, EdgeMode, FormatVersion, HeightfieldSettings, HorizonSettings,
+    MANIFEST_FILE, Manifest, Payload, Settings,
+};
 pub use mesh::{Accessor, ComponentType, MeshData, MeshDesc};
 pub use names::{is_valid_asset_id, payload_file_name};
 pub use texture::{Supercompression, TextureData, TextureDesc, TextureDimension, TextureFormat};

@@ -26,8 +26,9 @@ pub struct FormatVersion {
 }
 
 impl FormatVersion {
-    /// The version this crate writes and reads.
-    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 0 };
+    /// The version this crate writes and reads. 1.1 added the `Horizon` and
+    /// `AmbientOcclusion` kinds.
+    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 1 };
 }
 
 impl fmt::Display for FormatVersion {
@@ -53,6 +54,12 @@ pub enum AssetKind {
     /// A heightfield: a one-channel 2D texture of samples; world height is
     /// `height_offset + height_scale × sample`.
     Heightfield,
+    /// Horizon and distance maps (seed 000): a two-channel 3D texture `W×H×D` with the azimuth
+    /// `φ_k = 2πk/D` on the depth axis; channel 0 `tan β`, channel 1 `d` (world units).
+    Horizon,
+    /// Ambient occlusion derived from horizons: a one-channel 2D texture, the occluded share of
+    /// the cosine-weighted hemisphere (0 open, 1 closed).
+    AmbientOcclusion,
     /// A texture with no hikage-specific meaning (tests, user data).
     Texture,
     /// A mesh with no hikage-specific meaning.
@@ -64,6 +71,8 @@ impl AssetKind {
     pub fn name(self) -> &'static str {
         match self {
             AssetKind::Heightfield => "heightfield",
+            AssetKind::Horizon => "horizon",
+            AssetKind::AmbientOcclusion => "ambient_occlusion",
             AssetKind::Texture => "texture",
             AssetKind::Mesh => "mesh",
         }
@@ -126,6 +135,67 @@ pub enum Settings {
     Generic,
     /// A heightfield import.
     Heightfield(HeightfieldSettings),
+    /// A horizon bake.
+    Horizon(HorizonSettings),
+    /// Ambient occlusion from horizons.
+    AmbientOcclusion(AmbientOcclusionSettings),
+}
+
+/// What rays do at the edge of a heightfield.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum EdgeMode {
+    /// Rays continue on the torus (tileable bump maps).
+    #[default]
+    Wrap,
+    /// Rays stop at the map edge (terrain).
+    Clamp,
+}
+
+/// How a horizon texture was baked and how to decode it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HorizonSettings {
+    /// Id of the heightfield asset baked from the same input.
+    pub heightfield: String,
+    /// Number of azimuths `D`; direction `k` has `φ = 2πk/D`, measured in texel space from +u
+    /// toward +v.
+    pub directions: u32,
+    /// Edge behaviour.
+    pub edge: EdgeMode,
+    /// Largest horizon distance searched, world units (`None`: to the edge for `Clamp`, one map
+    /// length along the ray's major axis for `Wrap`).
+    pub max_distance: Option<f32>,
+    /// Texels per ray traced exactly before the line sweep.
+    pub near_field: u32,
+    /// World units per texel along `u` and `v`.
+    pub texel_size: (f32, f32),
+    /// Height scale of the heightfield (world = offset + scale × sample).
+    pub height_scale: f32,
+    /// `tan β` stored for a ray with no sample (open sky).
+    pub open_sky_slope: f32,
+    /// For `Rg8Unorm`: `tan β = tan((c0 − 0.5) π)`, `d = c1 × distance_scale`; 1 otherwise.
+    pub distance_scale: f32,
+}
+
+impl HorizonSettings {
+    /// Decodes a stored texel `(c0, c1)` (as the texture format returns it) to `(tan β, d)`.
+    pub fn decode(&self, format: crate::TextureFormat, c0: f32, c1: f32) -> (f32, f32) {
+        match format {
+            crate::TextureFormat::Rg8Unorm => {
+                let slope = if c0 <= 0.0 { self.open_sky_slope } else { ((c0 - 0.5) * std::f32::consts::PI).tan() };
+                (slope, c1 * self.distance_scale)
+            }
+            _ => (c0, c1),
+        }
+    }
+}
+
+/// How an ambient-occlusion map was derived.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AmbientOcclusionSettings {
+    /// Id of the horizon asset it was derived from.
+    pub horizon: String,
+    /// Directions averaged.
+    pub directions: u32,
 }
 
 /// How a heightfield's samples map to world space (DESIGN.md "World units").
@@ -206,7 +276,7 @@ mod tests {
         let text = "(format: (major: 7, minor: 2), generator: \"x\", assets: [], later: 1)";
         let err = Manifest::parse(text, Path::new("b/bundle.ron")).unwrap_err();
         let msg = err.to_string();
-        assert!(msg.contains("7.2") && msg.contains("1.0"), "{msg}");
+        assert!(msg.contains("7.2") && msg.contains(&FormatVersion::CURRENT.to_string()), "{msg}");
     }
 
     #[test]

@@ -39,15 +39,8 @@ pub const OPEN_SKY_SLOPE: f32 = -65504.0;
 /// Version of the horizon baker; part of the input hash.
 pub const ALGORITHM_VERSION: u32 = 1;
 
-/// What happens to rays at the map edge.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum Edge {
-    /// Rays continue on the torus (tileable bump maps).
-    #[default]
-    Wrap,
-    /// Rays stop at the map edge (terrain).
-    Clamp,
-}
+/// What happens to rays at the map edge (the bundle's [`hikage_bundle::EdgeMode`]).
+pub use hikage_bundle::EdgeMode as Edge;
 
 /// Storage of the horizon texture: channel 0 is `tan β`, channel 1 is `d`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]

@@ -1,6 +1,7 @@
 //! The bakers a pipeline job can name, behind one interface the runner uses.
 
 pub mod heightfield;
+pub mod horizon;
 
 use std::path::{Path, PathBuf};
 
@@ -46,6 +47,7 @@ impl Job {
     pub fn id(&self) -> &str {
         match self {
             Job::Heightfield(j) => &j.id,
+            Job::Horizon(j) => &j.id,
         }
     }
 
@@ -53,6 +55,7 @@ impl Job {
     pub fn kind(&self) -> &'static str {
         match self {
             Job::Heightfield(_) => "heightfield",
+            Job::Horizon(_) => "horizon",
         }
     }
 
@@ -60,6 +63,7 @@ impl Job {
     pub fn algorithm_version(&self) -> u32 {
         match self {
             Job::Heightfield(_) => heightfield::ALGORITHM_VERSION,
+            Job::Horizon(_) => horizon::ALGORITHM_VERSION,
         }
     }
 
@@ -67,6 +71,7 @@ impl Job {
     pub fn inputs(&self, base_dir: &Path) -> Vec<PathBuf> {
         match self {
             Job::Heightfield(j) => vec![base_dir.join(&j.input)],
+            Job::Horizon(j) => vec![base_dir.join(&j.input)],
         }
     }
 
@@ -74,6 +79,7 @@ impl Job {
     pub fn outputs(&self) -> Vec<String> {
         match self {
             Job::Heightfield(j) => vec![j.id.clone()],
+            Job::Horizon(j) => j.outputs(),
         }
     }
 
@@ -81,6 +87,7 @@ impl Job {
     pub fn canonical_settings(&self) -> String {
         match self {
             Job::Heightfield(j) => j.canonical_settings(),
+            Job::Horizon(j) => j.canonical_settings(),
         }
     }
 
@@ -94,6 +101,7 @@ impl Job {
         }
         match self {
             Job::Heightfield(j) => j.check(),
+            Job::Horizon(j) => j.check(),
         }
     }
 
@@ -101,6 +109,7 @@ impl Job {
     pub fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
         match self {
             Job::Heightfield(j) => j.load(ctx).map(|_| ()),
+            Job::Horizon(j) => j.check_inputs(ctx),
         }
     }
 
@@ -108,6 +117,7 @@ impl Job {
     pub fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
         match self {
             Job::Heightfield(j) => j.bake(ctx),
+            Job::Horizon(j) => j.bake(ctx),
         }
     }
 
