@@ -1,101 +1,11 @@
-//! Horizon maps against an independent brute force: a ray per texel over the bilinear surface,
-//! sampled at every grid-line crossing, written in plain texel space (no canonical orientation,
-//! no hulls, no stencil). Accuracy gates from the horizon issue, in degrees of β.
+//! Horizon maps against the independent brute force of `horizon::reference` (a ray per texel,
+//! every grid-line crossing, plain texel space). Accuracy gates from the horizon issue, in
+//! degrees of β.
 
 use hikage_bake::heightfield::Heightfield;
+use hikage_bake::horizon::reference::brute_force as brute;
 use hikage_bake::horizon::{self, Edge, HorizonFormat, HorizonSettings, HorizonTexture, OPEN_SKY_SLOPE};
 use hikage_bake::synth;
-
-/// World height of sample (row, col), or `None` outside a clamped map.
-fn sample(hf: &Heightfield, wrap: bool, row: i64, col: i64) -> Option<f64> {
-    let (w, h) = (hf.width as i64, hf.height as i64);
-    let (r, c) = if wrap { (row.rem_euclid(h), col.rem_euclid(w)) } else { (row, col) };
-    if r < 0 || r >= h || c < 0 || c >= w {
-        return None;
-    }
-    Some(hf.samples[(r * w + c) as usize] as f64 * hf.height_scale as f64)
-}
-
-/// Linear interpolation along a grid line at fractional position `x` between integer knots,
-/// `at(knot)` giving heights; snaps positions within 1e-9 of a knot onto it.
-fn along(x: f64, at: impl Fn(i64) -> Option<f64>) -> Option<f64> {
-    let mut k = x.floor();
-    let mut f = x - k;
-    if f > 1.0 - 1e-9 {
-        k += 1.0;
-        f = 0.0;
-    }
-    if f < 1e-9 {
-        return at(k as i64);
-    }
-    Some(at(k as i64)? * (1.0 - f) + at(k as i64 + 1)? * f)
-}
-
-/// Brute-force `(tan β, d)` of texel (row, col) in direction `phi`.
-fn brute(hf: &Heightfield, s: &HorizonSettings, row: usize, col: usize, phi: f64) -> (f64, f64) {
-    let wrap = s.edge == Edge::Wrap;
-    let (c, sn) = (phi.cos(), phi.sin());
-    let c = if c.abs() < 1e-12 { 0.0 } else { c };
-    let sn = if sn.abs() < 1e-12 { 0.0 } else { sn };
-    let (sx, sy) = (hf.texel_size.0 as f64, hf.texel_size.1 as f64);
-    let len = ((sx * c).powi(2) + (sy * sn).powi(2)).sqrt();
-    // Largest ray parameter (texels along the ray).
-    let mut s_max = match (s.max_distance, wrap) {
-        (Some(md), _) => md as f64 / len,
-        (None, true) => {
-            if c.abs() >= sn.abs() {
-                hf.width as f64 / c.abs()
-            } else {
-                hf.height as f64 / sn.abs()
-            }
-        }
-        (None, false) => f64::INFINITY,
-    };
-    if !wrap {
-        // Stop at the edge of the surface's domain [0.5, W-0.5] x [0.5, H-0.5].
-        let (u0, v0) = (col as f64 + 0.5, row as f64 + 0.5);
-        let exit = |p0: f64, d: f64, hi: f64| {
-            if d > 0.0 {
-                (hi - 0.5 - p0) / d
-            } else if d < 0.0 {
-                (0.5 - p0) / d
-            } else {
-                f64::INFINITY
-            }
-        };
-        s_max = s_max.min(exit(u0, c, hf.width as f64)).min(exit(v0, sn, hf.height as f64));
-    }
-    let h0 = sample(hf, wrap, row as i64, col as i64).unwrap();
-    let mut params = Vec::new();
-    for (d, is_u) in [(c, true), (sn, false)] {
-        if d != 0.0 {
-            let mut n = 1.0;
-            while n / d.abs() <= s_max + 1e-9 {
-                params.push((n / d.abs(), is_u));
-                n += 1.0;
-            }
-        }
-    }
-    let (mut best, mut best_d) = (f64::NEG_INFINITY, 0.0);
-    for (t, on_vertical_line) in params {
-        let (du, dv) = (t * c, t * sn);
-        let h = if on_vertical_line {
-            let colx = col as i64 + du.round() as i64;
-            along(row as f64 + dv, |r| sample(hf, wrap, r, colx))
-        } else {
-            let rowx = row as i64 + dv.round() as i64;
-            along(col as f64 + du, |cc| sample(hf, wrap, rowx, cc))
-        };
-        if let Some(h) = h {
-            let slope = (h - h0) / (t * len);
-            if slope > best {
-                best = slope;
-                best_d = t * len;
-            }
-        }
-    }
-    (best, best_d)
-}
 
 #[derive(Debug)]
 struct Stats {

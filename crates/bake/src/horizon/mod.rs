@@ -19,6 +19,7 @@
 mod grid;
 mod hull;
 mod near;
+pub mod reference;
 mod steps;
 mod sweep;
 
@@ -94,7 +95,7 @@ impl Default for HorizonSettings {
 }
 
 /// Default near field: enough for the accuracy gates on rough terrain (see the README).
-pub const DEFAULT_NEAR_FIELD: u32 = 12;
+pub const DEFAULT_NEAR_FIELD: u32 = 16;
 
 impl HorizonSettings {
     /// Checks ranges; the message says what is accepted.

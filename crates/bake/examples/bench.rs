@@ -1,0 +1,121 @@
+//! The benchmark table of the README. Run from the repository root:
+//!
+//! ```text
+//! cargo run --release -p hikage-bake --example bench
+//! ```
+//!
+//! Every figure is the best of several runs (machines here are noisy), with its baseline
+//! measured in the same run. Set `RAYON_NUM_THREADS` to change the thread count.
+
+use std::time::Instant;
+
+use hikage_bake::heightfield::Heightfield;
+use hikage_bake::horizon::{self, Edge, HorizonFormat, HorizonSettings, OPEN_SKY_SLOPE, reference};
+use hikage_bake::synth;
+
+fn best_of<T>(runs: usize, mut f: impl FnMut() -> T) -> (f64, T) {
+    let mut best = f64::INFINITY;
+    let mut out = None;
+    for _ in 0..runs {
+        drop(out.take()); // never hold two results at once (peak memory is measured)
+        let t = Instant::now();
+        let r = f();
+        best = best.min(t.elapsed().as_secs_f64());
+        out = Some(r);
+    }
+    (best, out.expect("at least one run"))
+}
+
+fn terrain(n: u32) -> Heightfield {
+    let mut hf = Heightfield::from_samples(n, n, synth::terrain(n));
+    hf.texel_size = (30.0, 30.0);
+    hf.height_scale = 1500.0;
+    hf
+}
+
+fn peak_rss_mib() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib / 1024.0)
+}
+
+fn main() {
+    let threads = rayon::current_num_threads();
+    println!("hikage benchmarks — {threads} threads, best of N runs\n");
+    println!("| figure | input | time | throughput | baseline | ratio |");
+    println!("|---|---|---|---|---|---|");
+
+    // Brute force vs the baker at 256², same input and settings, with the accuracy it reaches.
+    let hf = terrain(256);
+    let s =
+        HorizonSettings { directions: 16, edge: Edge::Clamp, format: HorizonFormat::Rg32Float, ..Default::default() };
+    let (t_fast, baked) = best_of(3, || horizon::bake(&hf, &s, &|_, _| {}).expect("valid settings"));
+    let (t_brute, brute) = best_of(1, || {
+        use rayon::prelude::*;
+        (0..256 * 256 * 16)
+            .into_par_iter()
+            .map(|i| {
+                let phi = std::f64::consts::TAU * (i / (256 * 256)) as f64 / 16.0;
+                reference::brute_force(&hf, &s, i / 256 % 256, i % 256, phi).0
+            })
+            .collect::<Vec<f64>>()
+    });
+    let td = 256.0 * 256.0 * 16.0;
+    println!(
+        "| horizon bake vs brute force | 256²×16, clamp | {:.3} s | {:.2e} texel-dir/s | brute force {:.2} s (same threads) | {:.0}× |",
+        t_fast,
+        td / t_fast,
+        t_brute,
+        t_brute / t_fast
+    );
+    let mut errs: Vec<f64> = (0..brute.len())
+        .map(|i| {
+            let k = i / (256 * 256);
+            let (row, col) = (i / 256 % 256, i % 256);
+            let b = horizon::decode(&baked, k, row, col).0;
+            match (b <= OPEN_SKY_SLOPE, brute[i] == f64::NEG_INFINITY) {
+                (true, true) => 0.0,
+                (false, false) => ((b as f64).atan() - brute[i].atan()).abs().to_degrees(),
+                _ => 180.0,
+            }
+        })
+        .collect();
+    errs.sort_by(f64::total_cmp);
+    let n = errs.len();
+    println!(
+        "| horizon error vs brute force (β) | 256²×16, rough terrain | mean {:.4}° | p99 {:.4}° | max {:.3}° | — |",
+        errs.iter().sum::<f64>() / n as f64,
+        errs[n * 99 / 100],
+        errs[n - 1]
+    );
+
+    // Throughput at the issue's sizes, f16 output.
+    for (size, dirs, runs) in [(1024u32, 16u32, 3usize), (2048, 64, 2)] {
+        let hf = terrain(size);
+        let s = HorizonSettings { directions: dirs, edge: Edge::Clamp, ..Default::default() };
+        let (t, out) = best_of(runs, || horizon::bake(&hf, &s, &|_, _| {}).expect("valid settings"));
+        let td = size as f64 * size as f64 * dirs as f64;
+        let out_mib = out.texture.levels[0].len() as f64 / (1 << 20) as f64;
+        drop(out);
+        println!(
+            "| horizon bake, rg16f | {size}²×{dirs}, clamp | {t:.2} s | {:.2e} texel-dir/s ({:.1} ns each) | target 1e8/s | {:.2}× of target |",
+            td / t,
+            t * 1e9 / td,
+            td / t / 1e8
+        );
+        if size == 2048 {
+            let input_mib = size as f64 * size as f64 * 4.0 / (1 << 20) as f64;
+            println!(
+                "| peak memory (process) | {size}²×{dirs} | {:.0} MiB | output {out_mib:.0} MiB, input {input_mib:.0} MiB (f32) | target ≤ output + 2× input = {:.0} MiB | — |",
+                peak_rss_mib().unwrap_or(f64::NAN),
+                out_mib + 2.0 * input_mib
+            );
+        }
+    }
+    let grass = std::process::Command::new("grass").arg("--version").output().is_ok();
+    println!(
+        "| GRASS r.horizon | — | — | — | {} | — |",
+        if grass { "installed, comparison not automated yet" } else { "not installed (apt-get install grass-core)" }
+    );
+}
