@@ -269,3 +269,148 @@ fn hostile_bundles_give_errors_not_panics() {
         other => panic!("depth {depth}, device limit {max3d}: unexpected {other:?}"),
     }
 }
+
+const HORIZON_TEST: &str = r#"
+struct Sample { uv: vec2<f32>, principal: vec2<f32>, light: vec4<f32>, k: vec4<f32> }
+@group(0) @binding(0) var map: texture_3d<f32>;
+@group(0) @binding(1) var samp: sampler;
+@group(0) @binding(2) var<storage, read> samples: array<Sample>;
+@group(0) @binding(3) var<storage, read_write> lit: array<u32>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if i >= arrayLength(&samples) { return; }
+    let s = samples[i];
+    lit[i] = select(0u, 1u, horizon_shadow_lit(map, samp, s.uv, s.light.xyz, s.k.x, s.k.y, s.principal, s.k.z));
+}
+"#;
+
+#[test]
+fn horizon_shader_agrees_with_its_cpu_reference() {
+    use hikage_runtime::glam::{Vec2, Vec3};
+    use hikage_runtime::horizon::{
+        HORIZON_WGSL, HorizonMap, horizon_corrected_slope, horizon_fetch, horizon_shadow_lit,
+    };
+
+    let dir = Dir::new("gpu_horizon");
+    dir.copy_data();
+    dir.run(&["horizon", "data/cylinders.png", "--out", "bundle", "--directions", "32", "--height-scale", "4"]);
+    let cpu = CpuBundle::read(&dir.path("bundle")).unwrap();
+    let bundle = hikage_bundle::Bundle::open(&dir.path("bundle")).unwrap();
+    let horizon = bundle.read_texture("cylinders.horizon").unwrap();
+    let heights = bundle.read_texture("cylinders.height").unwrap().to_f32(0);
+    let map = HorizonMap::new(&horizon).unwrap();
+
+    // Samples: a 64×64 grid of texture coordinates, lights from 8 azimuths at 3 elevations
+    // (one below the tangent plane), on a flat surface and on spheres of κ = 0.005 and 0.015.
+    let mut samples: Vec<f32> = Vec::new();
+    let mut cases = Vec::new();
+    for gy in 0..64 {
+        for gx in 0..64 {
+            let uv = Vec2::new((gx as f32 + 0.37) / 64.0, (gy as f32 + 0.71) / 64.0);
+            let texel = (uv.y * 128.0) as usize * 128 + (uv.x * 128.0) as usize;
+            let h = 4.0 * heights[texel];
+            for a in 0..8 {
+                let az = a as f32 * 0.785 + 0.2;
+                for elev in [-0.05f32, 0.3, 0.7] {
+                    for kappa in [0.0f32, 0.005, 0.015] {
+                        let light = Vec3::new(az.cos() * elev.cos(), az.sin() * elev.cos(), elev.sin());
+                        let principal = Vec2::new(1.0, 0.3);
+                        samples.extend([uv.x, uv.y, principal.x, principal.y, light.x, light.y, light.z, 0.0]);
+                        samples.extend([kappa, kappa * 0.5, h, 0.0]);
+                        cases.push((uv, light, kappa, kappa * 0.5, principal, h));
+                    }
+                }
+            }
+        }
+    }
+    let Some(g) = gpu("horizon_shader_agrees_with_its_cpu_reference") else { return };
+    let gpu_bundle = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
+    let view = &gpu_bundle.textures["cylinders.horizon"].view;
+    let sampler = g.device.create_sampler(&wgpu::SamplerDescriptor {
+        address_mode_u: wgpu::AddressMode::Repeat,
+        address_mode_v: wgpu::AddressMode::Repeat,
+        address_mode_w: wgpu::AddressMode::Repeat,
+        mag_filter: wgpu::FilterMode::Linear,
+        min_filter: wgpu::FilterMode::Linear,
+        ..Default::default()
+    });
+    let module = g.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("horizon test"),
+        source: wgpu::ShaderSource::Wgsl(format!("{HORIZON_WGSL}\n{HORIZON_TEST}").into()),
+    });
+    let pipeline = g.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: None,
+        layout: None,
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let bytes: Vec<u8> = samples.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let input = g.device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size: bytes.len() as u64,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    g.queue.write_buffer(&input, 0, &bytes);
+    let out = g.device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size: cases.len() as u64 * 4,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let bind = g.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(view) },
+            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&sampler) },
+            wgpu::BindGroupEntry { binding: 2, resource: input.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 3, resource: out.as_entire_binding() },
+        ],
+    });
+    let mut enc = g.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.dispatch_workgroups((cases.len() as u32).div_ceil(64), 1, 1);
+    }
+    g.queue.submit([enc.finish()]);
+    let lit: Vec<u32> =
+        g.read_buffer(&out).chunks_exact(4).map(|c| u32::from_le_bytes(c.try_into().unwrap())).collect();
+
+    let (mut disagree, mut lit_count) = (0usize, 0usize);
+    let mut lit_by_kappa = std::collections::BTreeMap::new();
+    for (i, &(uv, light, k1, k2, principal, h)) in cases.iter().enumerate() {
+        let cpu_lit = horizon_shadow_lit(&map, uv, light, k1, k2, principal, h);
+        lit_count += cpu_lit as usize;
+        *lit_by_kappa.entry((k1 * 1000.0) as u32).or_insert(0usize) += (lit[i] == 1) as usize;
+        if cpu_lit != (lit[i] == 1) {
+            disagree += 1;
+            // Only along shadow boundaries: the light is within a small angle of the horizon.
+            let [tb, d] = horizon_fetch(&map, uv, light.y.atan2(light.x));
+            let dir = light.truncate().normalize();
+            let p = principal.normalize();
+            let kappa = k1 * dir.dot(p).powi(2) + k2 * (dir.x * p.y - dir.y * p.x).powi(2);
+            let corrected = horizon_corrected_slope(tb, d, kappa, h).atan();
+            let elevation = light.z.atan2(light.truncate().length());
+            assert!(
+                (elevation - corrected).abs() < 0.05,
+                "case {i}: disagreement {:.3} rad from the boundary",
+                (elevation - corrected).abs()
+            );
+        }
+    }
+    let share = disagree as f64 / cases.len() as f64;
+    eprintln!("horizon shader vs CPU: {disagree} of {} disagree ({:.3}%), {lit_count} lit", cases.len(), share * 100.0);
+    assert!(share <= 0.005, "{:.3}% of samples disagree", share * 100.0);
+    assert!(lit_count > cases.len() / 4 && lit_count < cases.len(), "a test with shadows and light");
+    // Curvature shortens shadows, more so at higher curvature (seed 000, Fig. 4 vs 5).
+    let l: Vec<usize> = lit_by_kappa.values().copied().collect();
+    eprintln!("lit on the GPU for κ = 0, 0.005, 0.015: {l:?}");
+    assert!(l[0] < l[1] && l[1] < l[2], "{l:?}");
+}

@@ -8,15 +8,18 @@
 //!   [`RuntimeError`], never a wgpu validation panic.
 //!
 //! [`headless`] opens a device without a window (Mesa lavapipe on CI) for tests and examples.
+//! [`horizon`] holds the WGSL of curvature-corrected horizon shadows and its CPU reference.
 //!
 //! The runtime never links the baker: a game needs only this crate and `hikage-bundle`.
 
 mod error;
 pub mod headless;
+pub mod horizon;
 mod load;
 mod upload;
 
 pub use error::RuntimeError;
+pub use glam;
 pub use load::{CpuAsset, CpuBundle, CpuPayload};
 pub use upload::{GpuBundle, GpuMesh, GpuTexture, wgpu_format};
 pub use wgpu;
