@@ -89,13 +89,38 @@ impl Sweeper {
         Some(Pt { x: c as f32, h })
     }
 
+    /// Columns `i` at which line `k` brackets a texel of a clamped map (its row `k + m·i` lies
+    /// within a row of the map), or `None`.
+    fn columns_near_map(g: &Grid, m: f64, k: i64) -> Option<(usize, usize)> {
+        let (lo_y, hi_y) = (-1.5 - k as f64, g.h as f64 + 0.5 - k as f64);
+        let (lo, hi) = if m > 0.0 {
+            (lo_y / m, hi_y / m)
+        } else if m < 0.0 {
+            (hi_y / m, lo_y / m)
+        } else if lo_y < 0.0 && hi_y > 0.0 {
+            (0.0, g.w as f64)
+        } else {
+            return None;
+        };
+        let lo = lo.floor().max(0.0);
+        let hi = hi.ceil().min(g.w as f64 - 1.0);
+        (lo <= hi).then_some((lo as usize, hi as usize))
+    }
+
     fn run(&mut self, g: &Grid, line: &Line, k: i64, far: &mut Far) {
         let (w, near) = (g.w, line.near);
         self.suffix.clear();
         self.prefix.clear();
         match line.reach {
             None => {
-                for i in (0..w).rev() {
+                // Clamped: only the columns where the line is near the map matter.
+                let Some((i_lo, i_hi)) = Self::columns_near_map(g, line.steps.m, k) else { return };
+                for c in (i_hi + near + 1..w).rev() {
+                    if let Some(p) = Self::point(g, line, k, c) {
+                        self.suffix.push_front(p);
+                    }
+                }
+                for i in (i_lo..=i_hi).rev() {
                     let a = i + near + 1;
                     if a < w {
                         if let Some(p) = Self::point(g, line, k, a) {
