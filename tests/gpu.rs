@@ -414,3 +414,86 @@ fn horizon_shader_agrees_with_its_cpu_reference() {
     eprintln!("lit on the GPU for κ = 0, 0.005, 0.015: {l:?}");
     assert!(l[0] < l[1] && l[1] < l[2], "{l:?}");
 }
+
+#[test]
+fn lit_sphere_render_matches_the_cpu_reference_per_pixel() {
+    use hikage_runtime::glam::Vec3;
+    use hikage_runtime::horizon::HorizonMap;
+    use hikage_runtime::horizon_sphere::{SphereScene, render, render_cpu, shadowed_fraction};
+
+    let dir = Dir::new("gpu_sphere");
+    dir.copy_data();
+    dir.run(&["horizon", "data/cylinders.png", "--out", "bundle", "--directions", "32", "--height-scale", "4"]);
+    let cpu = CpuBundle::read(&dir.path("bundle")).unwrap();
+    let bundle = hikage_bundle::Bundle::open(&dir.path("bundle")).unwrap();
+    let map = HorizonMap::new(&bundle.read_texture("cylinders.horizon").unwrap()).unwrap();
+    let heights = bundle.read_texture("cylinders.height").unwrap().to_f32(0);
+    let Some(g) = gpu("lit_sphere_render_matches_the_cpu_reference_per_pixel") else { return };
+    let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
+    let (hv, tv) = (&gb.textures["cylinders.horizon"].view, &gb.textures["cylinders.height"].view);
+
+    let size = 192u32;
+    let mut fractions = Vec::new();
+    for kappa in [0.005f32, 0.015] {
+        for corrected in [false, true] {
+            let scene = SphereScene {
+                light: Vec3::new(-0.8, 0.25, 0.45).normalize(),
+                sphere_kappa: kappa,
+                corrected,
+                tile_world: 128.0,
+                height_scale: 4.0,
+                size,
+            };
+            let (_, gpu_flags) = render(&g, &scene, hv, tv);
+            let cpu_flags = render_cpu(&scene, &map, &heights, (128, 128));
+            let sphere = cpu_flags.iter().filter(|&&f| f != 2).count();
+            let mut disagree = 0;
+            for (i, (&a, &b)) in cpu_flags.iter().zip(&gpu_flags).enumerate() {
+                if a == b {
+                    continue;
+                }
+                disagree += 1;
+                // Only along boundaries: the CPU image changes within the pixel's 3×3 neighbourhood.
+                let (x, y) = ((i as u32 % size) as i64, (i as u32 / size) as i64);
+                let mut seen = std::collections::BTreeSet::new();
+                for dy in -1..=1 {
+                    for dx in -1..=1 {
+                        let (nx, ny) = (x + dx, y + dy);
+                        if (0..size as i64).contains(&nx) && (0..size as i64).contains(&ny) {
+                            seen.insert(cpu_flags[(ny * size as i64 + nx) as usize]);
+                        }
+                    }
+                }
+                // Or where the height lookup changes texel: at a heightfield texel edge the height
+                // (and so κh in eq. 2–3) jumps, and GPU and CPU trigonometry may pick either side.
+                let r = 1.0 / kappa;
+                let (px, py) = ((x as f32 + 0.5) / size as f32 * 2.0 - 1.0, (y as f32 + 0.5) / size as f32 * 2.0 - 1.0);
+                let (wx, wy) = (px * r * 1.05, -py * r * 1.05);
+                let lam = wx.atan2((r * r - wx * wx - wy * wy).sqrt());
+                let psi = (wy / r).asin();
+                let texel_edge = [lam * r, -psi * r].iter().any(|c| {
+                    let f = (c / 128.0 * 128.0).rem_euclid(1.0);
+                    f.min(1.0 - f) < 0.02
+                });
+                assert!(
+                    seen.len() > 1 || texel_edge,
+                    "κ {kappa} corrected {corrected}: pixel ({x}, {y}) disagrees away from any boundary"
+                );
+            }
+            let share = disagree as f64 / sphere as f64;
+            eprintln!(
+                "κ {kappa} corrected {corrected}: {disagree} of {sphere} sphere pixels disagree ({:.3}%)",
+                share * 100.0
+            );
+            assert!(share <= 0.005, "{:.3}% disagree", share * 100.0);
+            fractions.push(shadowed_fraction(&gpu_flags));
+        }
+    }
+    // Corrected shadows are shorter, and the difference is larger at the larger curvature.
+    let (flat_lo, corr_lo, flat_hi, corr_hi) = (fractions[0], fractions[1], fractions[2], fractions[3]);
+    eprintln!(
+        "shadowed: κ=0.005 flat {flat_lo:.4} corrected {corr_lo:.4}; κ=0.015 flat {flat_hi:.4} corrected {corr_hi:.4}"
+    );
+    assert!(corr_lo < flat_lo && corr_hi < flat_hi);
+    assert!(flat_hi - corr_hi > flat_lo - corr_lo);
+}

@@ -68,4 +68,35 @@ impl Headless {
         staging.unmap();
         bytes
     }
+
+    /// Copies a 2D texture with 4 bytes per texel (`COPY_SRC`) into memory, row-major, rows
+    /// packed (the 256-byte row alignment of the copy is removed).
+    pub fn read_texture(&self, texture: &wgpu::Texture) -> Vec<u8> {
+        let (w, h) = (texture.width(), texture.height());
+        let row = w * 4;
+        let padded = row.div_ceil(256) * 256;
+        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("hikage texture readback"),
+            size: padded as u64 * h as u64,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded), rows_per_image: Some(h) },
+            },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        );
+        self.queue.submit([encoder.finish()]);
+        let bytes = self.read_buffer(&buffer);
+        bytes.chunks_exact(padded as usize).flat_map(|r| r[..row as usize].to_vec()).collect()
+    }
 }

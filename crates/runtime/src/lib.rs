@@ -15,6 +15,7 @@
 mod error;
 pub mod headless;
 pub mod horizon;
+pub mod horizon_sphere;
 mod load;
 mod upload;
 
