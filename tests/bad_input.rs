@@ -302,3 +302,29 @@ fn duplicate_ids_and_missing_payloads_are_reported() {
     let out = dir.run_expecting(&["validate", "bundle"], 1);
     assert!(stdout(&out).contains(&file), "{}", stdout(&out));
 }
+
+#[test]
+fn meshes_without_uvs_or_with_degenerate_triangles_are_refused() {
+    let dir = baked("bad_mesh");
+    dir.write("data/no_uv.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    bake_fails_with(
+        &dir,
+        "Curvature(id: \"m\", input: \"data/no_uv.obj\")",
+        1,
+        &["data/no_uv.obj", "line 4", "texture coordinate"],
+    );
+    dir.write("data/flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n");
+    bake_fails_with(
+        &dir,
+        "Curvature(id: \"m\", input: \"data/flat.obj\")",
+        1,
+        &["data/flat.obj", "triangle 0 has zero area"],
+    );
+    dir.write("data/range.obj", "v 0 0 0\nvt 0 0\nf 1/1 2/1 3/1\n");
+    bake_fails_with(
+        &dir,
+        "Curvature(id: \"m\", input: \"data/range.obj\")",
+        1,
+        &["data/range.obj", "line 3", "out of range"],
+    );
+}

@@ -29,9 +29,18 @@ fn default_pipeline_bakes_validates_and_inspects() {
             .collect();
         assert!(!made.is_empty(), "{id} made nothing");
         for a in made {
-            assert!(["heightfield", "horizon", "ambient_occlusion"].contains(&a["kind"].as_str().unwrap()), "{a}");
-            assert!(a["format"].as_str().unwrap().ends_with("Float"));
-            assert_eq!(a["dimensions"].as_array().unwrap().len(), 4);
+            match a["kind"].as_str().unwrap() {
+                "heightfield" | "horizon" | "ambient_occlusion" => {
+                    assert!(a["format"].as_str().unwrap().ends_with("Float"));
+                    assert_eq!(a["dimensions"].as_array().unwrap().len(), 4);
+                }
+                "curvature" => {
+                    assert_eq!(a["format"], "mesh");
+                    assert!(a["vertex_count"].as_u64().unwrap() > 1000, "{a}");
+                    assert_eq!(a["index_count"].as_u64().unwrap() % 3, 0);
+                }
+                other => panic!("unexpected kind {other}"),
+            }
         }
     }
     let find = |id: &str| assets.iter().find(|a| a["id"] == id).unwrap_or_else(|| panic!("{id} missing"));

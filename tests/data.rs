@@ -25,6 +25,8 @@ fn committed_samples_match_their_generators() {
     check("relief_fbm.png", 256, synth::fbm_relief(256), q16);
     check("relief_bricks.png", 256, synth::bricks(256), q8);
     check("relief_spikes.png", 256, synth::spikes_and_walls(256), q8);
+    let sphere = std::fs::read_to_string(repo().join("data/sphere.obj")).unwrap();
+    assert!(sphere == synth::uv_sphere_obj(1.0 / 0.015, 48, 24, 3.0), "sphere.obj differs from its generator");
 }
 
 #[test]

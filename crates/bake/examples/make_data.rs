@@ -49,5 +49,7 @@ fn main() {
     png16(&data.join("relief_fbm.png"), 256, &synth::fbm_relief(256));
     png8(&data.join("relief_bricks.png"), 256, &synth::bricks(256));
     png8(&data.join("relief_spikes.png"), 256, &synth::spikes_and_walls(256));
-    println!("wrote the sample heightfields to {}", data.display());
+    // Seed 000's sphere of curvature 0.015 (radius 66.7), three bump tiles around.
+    std::fs::write(data.join("sphere.obj"), synth::uv_sphere_obj(1.0 / 0.015, 48, 24, 3.0)).unwrap();
+    println!("wrote the sample inputs to {}", data.display());
 }

@@ -18,12 +18,14 @@
 //! hikage_bake::run::run_for_build_script("assets/pipeline.ron".as_ref()).unwrap();
 //! ```
 
+pub mod curvature;
 mod error;
 pub mod export;
 mod hash;
 pub mod heightfield;
 pub mod horizon;
 pub mod jobs;
+pub mod mesh;
 pub mod pipeline;
 pub mod run;
 pub mod synth;

@@ -18,6 +18,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::error::BakeError;
+pub use crate::jobs::curvature::CurvatureJob;
 pub use crate::jobs::heightfield::{HeightFormat, HeightfieldJob};
 pub use crate::jobs::horizon::HorizonJob;
 
@@ -60,6 +61,8 @@ pub enum Job {
     Heightfield(HeightfieldJob),
     /// Bake horizon and distance maps (and optionally ambient occlusion) from a heightfield.
     Horizon(HorizonJob),
+    /// Per-vertex principal curvatures of an OBJ mesh with UVs.
+    Curvature(CurvatureJob),
 }
 
 /// A pipeline with the file it came from.

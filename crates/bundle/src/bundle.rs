@@ -208,7 +208,9 @@ pub(crate) fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(St
             bad(format!("byte_length {} is above the limit of {}", a.byte_length, limits.max_payload_bytes));
         }
         match (&a.payload, a.kind) {
-            (Payload::Texture(_), AssetKind::Mesh) => bad("kind mesh does not match its texture payload".into()),
+            (Payload::Texture(_), kind @ (AssetKind::Mesh | AssetKind::Curvature)) => {
+                bad(format!("kind {} does not match its texture payload", kind.name()))
+            }
             (Payload::Texture(t), kind) => {
                 if let Err(m) = t.check(limits) {
                     bad(m);
@@ -237,6 +239,13 @@ pub(crate) fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(St
                 }
             }
             (Payload::Mesh(_), AssetKind::Mesh) => {}
+            (Payload::Mesh(m), AssetKind::Curvature) => {
+                for name in ["position", "uv", "normal", "curvature", "principal1", "principal2"] {
+                    if m.attribute(name).is_none() {
+                        bad(format!("a curvature mesh needs a `{name}` stream"));
+                    }
+                }
+            }
             (Payload::Mesh(_), kind) => bad(format!("kind {} does not match its mesh payload", kind.name())),
         }
         let settings_ok = matches!(
@@ -244,6 +253,7 @@ pub(crate) fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(St
             (Settings::Heightfield(_), AssetKind::Heightfield)
                 | (Settings::Horizon(_), AssetKind::Horizon)
                 | (Settings::AmbientOcclusion(_), AssetKind::AmbientOcclusion)
+                | (Settings::Curvature(_), AssetKind::Curvature)
                 | (Settings::Generic, AssetKind::Texture | AssetKind::Mesh)
         );
         if !settings_ok {

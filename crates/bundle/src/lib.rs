@@ -41,8 +41,8 @@ pub use bundle::Bundle;
 pub use error::BundleError;
 pub use limits::Limits;
 pub use manifest::{
-    AmbientOcclusionSettings, Asset, AssetKind, EdgeMode, FormatVersion, HeightfieldSettings, HorizonSettings,
-    MANIFEST_FILE, Manifest, Payload, Settings,
+    AmbientOcclusionSettings, Asset, AssetKind, CurvatureSettings, EdgeMode, FormatVersion, HeightfieldSettings,
+    HorizonSettings, MANIFEST_FILE, Manifest, Payload, Settings,
 };
 pub use mesh::{Accessor, ComponentType, MeshData, MeshDesc};
 pub use names::{is_valid_asset_id, payload_file_name};

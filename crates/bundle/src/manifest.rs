@@ -26,8 +26,8 @@ pub struct FormatVersion {
 }
 
 impl FormatVersion {
-    /// The version this crate writes and reads. 1.1 added the `Horizon` and
-    /// `AmbientOcclusion` kinds.
+    /// The version this crate writes and reads. 1.1 added the `Horizon`, `AmbientOcclusion`
+    /// and `Curvature` kinds.
     pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 1 };
 }
 
@@ -60,6 +60,11 @@ pub enum AssetKind {
     /// Ambient occlusion derived from horizons: a one-channel 2D texture, the occluded share of
     /// the cosine-weighted hemisphere (0 open, 1 closed).
     AmbientOcclusion,
+    /// Per-vertex principal curvatures of a mesh (seed 000 §3.1): a mesh with F32 streams
+    /// `position` (3), `uv` (2), `normal` (3), `curvature` (κ1 ≥ κ2, 1/world units), `principal1`
+    /// and `principal2` (2 each: the principal directions in the vertex's texture frame, as
+    /// components along the unit tangents of +u and +v), and U32 triangle indices.
+    Curvature,
     /// A texture with no hikage-specific meaning (tests, user data).
     Texture,
     /// A mesh with no hikage-specific meaning.
@@ -73,6 +78,7 @@ impl AssetKind {
             AssetKind::Heightfield => "heightfield",
             AssetKind::Horizon => "horizon",
             AssetKind::AmbientOcclusion => "ambient_occlusion",
+            AssetKind::Curvature => "curvature",
             AssetKind::Texture => "texture",
             AssetKind::Mesh => "mesh",
         }
@@ -139,6 +145,18 @@ pub enum Settings {
     Horizon(HorizonSettings),
     /// Ambient occlusion from horizons.
     AmbientOcclusion(AmbientOcclusionSettings),
+    /// Curvature of a mesh.
+    Curvature(CurvatureSettings),
+}
+
+/// How a curvature mesh was computed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CurvatureSettings {
+    /// Distinct positions in the source mesh (curvature is computed per position and shared
+    /// by the vertices that split it at UV seams).
+    pub positions: u32,
+    /// Neighbourhood of the quadric fit, in rings of edges.
+    pub rings: u32,
 }
 
 /// What rays do at the edge of a heightfield.

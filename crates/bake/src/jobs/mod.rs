@@ -1,5 +1,6 @@
 //! The bakers a pipeline job can name, behind one interface the runner uses.
 
+pub mod curvature;
 pub mod heightfield;
 pub mod horizon;
 
@@ -48,6 +49,7 @@ impl Job {
         match self {
             Job::Heightfield(j) => &j.id,
             Job::Horizon(j) => &j.id,
+            Job::Curvature(j) => &j.id,
         }
     }
 
@@ -56,6 +58,7 @@ impl Job {
         match self {
             Job::Heightfield(_) => "heightfield",
             Job::Horizon(_) => "horizon",
+            Job::Curvature(_) => "curvature",
         }
     }
 
@@ -64,6 +67,7 @@ impl Job {
         match self {
             Job::Heightfield(_) => heightfield::ALGORITHM_VERSION,
             Job::Horizon(_) => horizon::ALGORITHM_VERSION,
+            Job::Curvature(_) => curvature::ALGORITHM_VERSION,
         }
     }
 
@@ -72,6 +76,7 @@ impl Job {
         match self {
             Job::Heightfield(j) => vec![base_dir.join(&j.input)],
             Job::Horizon(j) => vec![base_dir.join(&j.input)],
+            Job::Curvature(j) => vec![base_dir.join(&j.input)],
         }
     }
 
@@ -80,6 +85,7 @@ impl Job {
         match self {
             Job::Heightfield(j) => vec![j.id.clone()],
             Job::Horizon(j) => j.outputs(),
+            Job::Curvature(j) => vec![j.id.clone()],
         }
     }
 
@@ -88,6 +94,7 @@ impl Job {
         match self {
             Job::Heightfield(j) => j.canonical_settings(),
             Job::Horizon(j) => j.canonical_settings(),
+            Job::Curvature(j) => j.canonical_settings(),
         }
     }
 
@@ -102,6 +109,7 @@ impl Job {
         match self {
             Job::Heightfield(j) => j.check(),
             Job::Horizon(j) => j.check(),
+            Job::Curvature(_) => Ok(()),
         }
     }
 
@@ -110,6 +118,7 @@ impl Job {
         match self {
             Job::Heightfield(j) => j.load(ctx).map(|_| ()),
             Job::Horizon(j) => j.check_inputs(ctx),
+            Job::Curvature(j) => j.compute(ctx).map(|_| ()),
         }
     }
 
@@ -118,6 +127,7 @@ impl Job {
         match self {
             Job::Heightfield(j) => j.bake(ctx),
             Job::Horizon(j) => j.bake(ctx),
+            Job::Curvature(j) => j.bake(ctx),
         }
     }
 

@@ -1,0 +1,65 @@
+//! The `Curvature` job: an OBJ mesh with UVs → a `curvature` mesh asset.
+
+use std::path::PathBuf;
+
+use hikage_bundle::{AssetKind, CurvatureSettings, MeshData, Settings};
+use serde::{Deserialize, Serialize};
+
+use super::{BakedAsset, BakedPayload, JobContext};
+use crate::curvature;
+use crate::error::BakeError;
+use crate::mesh::obj;
+
+/// Version of the curvature job; part of the input hash.
+pub const ALGORITHM_VERSION: u32 = 1;
+
+/// Settings of a curvature bake.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CurvatureJob {
+    /// Asset id.
+    pub id: String,
+    /// Wavefront OBJ with texture coordinates on every face corner.
+    pub input: PathBuf,
+}
+
+impl CurvatureJob {
+    pub(crate) fn canonical_settings(&self) -> String {
+        "rings=2".to_string()
+    }
+
+    /// Loads and checks the mesh, and computes its curvature.
+    pub(crate) fn compute(
+        &self,
+        ctx: &JobContext,
+    ) -> Result<(crate::mesh::Mesh, Vec<curvature::VertexCurvature>), BakeError> {
+        let path = ctx.base_dir.join(&self.input);
+        let mesh = obj::load(&path, obj::ObjLimits::default())?;
+        let c = curvature::compute(&mesh).map_err(|e| BakeError::input(&path, None, e.to_string()))?;
+        Ok((mesh, c))
+    }
+
+    pub(crate) fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
+        (ctx.progress)(0, 1);
+        let (mesh, c) = self.compute(ctx)?;
+        let n = mesh.vertex_uv.len();
+        let mut data = MeshData::new(n as u32);
+        let flat = |f: &dyn Fn(usize) -> Vec<f32>| (0..n).flat_map(f).collect::<Vec<f32>>();
+        let position = flat(&|v| mesh.positions[mesh.vertex_position[v] as usize].as_vec3().to_array().to_vec());
+        data.push_f32("position", 3, &position)?;
+        data.push_f32("uv", 2, &flat(&|v| mesh.vertex_uv[v].as_vec2().to_array().to_vec()))?;
+        data.push_f32("normal", 3, &flat(&|v| c[v].normal.as_vec3().to_array().to_vec()))?;
+        data.push_f32("curvature", 2, &flat(&|v| vec![c[v].k1 as f32, c[v].k2 as f32]))?;
+        data.push_f32("principal1", 2, &flat(&|v| c[v].dir1_uv.as_vec2().to_array().to_vec()))?;
+        data.push_f32("principal2", 2, &flat(&|v| c[v].dir2_uv.as_vec2().to_array().to_vec()))?;
+        let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+        data.set_indices(&indices)?;
+        (ctx.progress)(1, 1);
+        Ok(vec![BakedAsset {
+            id: self.id.clone(),
+            kind: AssetKind::Curvature,
+            settings: Settings::Curvature(CurvatureSettings { positions: mesh.positions.len() as u32, rings: 2 }),
+            payload: BakedPayload::Mesh(data),
+        }])
+    }
+}
