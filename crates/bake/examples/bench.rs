@@ -113,9 +113,64 @@ fn main() {
             );
         }
     }
-    let grass = std::process::Command::new("grass").arg("--version").output().is_ok();
-    println!(
-        "| GRASS r.horizon | — | — | — | {} | — |",
-        if grass { "installed, comparison not automated yet" } else { "not installed (apt-get install grass-core)" }
+    grass_row();
+}
+
+/// GRASS GIS `r.horizon` on the same heightfield and directions, when `grass` is installed
+/// (`apt-get install grass-core`): the same 30 m terrain written as an ASCII grid into a
+/// temporary UTM project; only the `r.horizon` call is timed (it runs on one thread; its own
+/// pruning makes it far faster than a plain brute force).
+fn grass_row() {
+    let (size, dirs) = (512u32, 16u32);
+    let installed = std::process::Command::new("grass").arg("--version").output().is_ok_and(|o| o.status.success());
+    if !installed {
+        println!("| GRASS r.horizon | {size}²×{dirs} | — | — | not installed (apt-get install grass-core) | — |");
+        return;
+    }
+    let hf = terrain(size);
+    let s = HorizonSettings { directions: dirs, edge: Edge::Clamp, ..Default::default() };
+    let (t_ours, _) = best_of(3, || horizon::bake(&hf, &s, &|_, _| {}).expect("valid settings"));
+    let dir = std::env::temp_dir().join(format!("hikage-bench-grass-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let mut asc = format!(
+        "north: {}\nsouth: 5000000\neast: {}\nwest: 500000\nrows: {size}\ncols: {size}\n",
+        5_000_000 + size * 30,
+        500_000 + size * 30
     );
+    for row in 0..size as usize {
+        let line: Vec<String> = (0..size as usize)
+            .map(|col| format!("{:.3}", hf.samples[row * size as usize + col] * hf.height_scale))
+            .collect();
+        asc.push_str(&line.join(" "));
+        asc.push('\n');
+    }
+    std::fs::write(dir.join("dem.asc"), asc).expect("write grid");
+    let script = format!(
+        "cd {} && r.in.ascii input=dem.asc output=dem --quiet && g.region raster=dem && \
+         s=$(date +%s.%N) && r.horizon elevation=dem step={} output=hor --quiet && e=$(date +%s.%N) && \
+         echo RHORIZON $s $e",
+        dir.display(),
+        360.0 / dirs as f64
+    );
+    let out = std::process::Command::new("grass")
+        .args(["--tmp-location", "EPSG:32633", "--exec", "bash", "-c", &script])
+        .output();
+    let _ = std::fs::remove_dir_all(&dir);
+    let text = out.map(|o| String::from_utf8_lossy(&o.stdout).into_owned()).unwrap_or_default();
+    let times: Vec<f64> = text
+        .lines()
+        .find(|l| l.starts_with("RHORIZON"))
+        .map(|l| l.split_whitespace().skip(1).filter_map(|x| x.parse().ok()).collect())
+        .unwrap_or_default();
+    match times.as_slice() {
+        [start, end] => {
+            let t_grass = end - start;
+            println!(
+                "| horizon bake vs GRASS r.horizon | {size}²×{dirs}, clamp | {t_ours:.3} s | {:.2e} texel-dir/s | r.horizon {t_grass:.2} s (1 thread) | {:.0}× |",
+                (size * size * dirs) as f64 / t_ours,
+                t_grass / t_ours
+            );
+        }
+        _ => println!("| GRASS r.horizon | {size}²×{dirs} | — | — | installed, but the run failed | — |"),
+    }
 }
