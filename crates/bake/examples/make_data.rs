@@ -51,5 +51,13 @@ fn main() {
     png8(&data.join("relief_spikes.png"), 256, &synth::spikes_and_walls(256));
     // Seed 000's sphere of curvature 0.015 (radius 66.7), three bump tiles around.
     std::fs::write(data.join("sphere.obj"), synth::uv_sphere_obj(1.0 / 0.015, 48, 24, 3.0)).unwrap();
+    // Seed 004's hair: 10,000 strands × 22 points. Positions only: the per-strand width and
+    // opacity arrays would add 1.8 MB and break data/'s 4 MiB budget; the header defaults are
+    // the paper's shading set (width 0.016 cm here, opacity 0.366).
+    let mut hair = synth::hair(10_000, 22, 7);
+    hair.thickness = None;
+    hair.transparency = None;
+    let info = "hikage synth::hair(10000, 22, seed 7), cm; head ellipsoid 8 x 10.5 x 9.5";
+    std::fs::write(data.join("head.hair"), hikage_bake::strands::cyhair::encode(&hair, info)).unwrap();
     println!("wrote the sample inputs to {}", data.display());
 }

@@ -28,6 +28,7 @@ pub mod jobs;
 pub mod mesh;
 pub mod pipeline;
 pub mod run;
+pub mod strands;
 pub mod synth;
 
 pub use error::BakeError;

@@ -1,0 +1,82 @@
+//! Procedural hair: strands grown from a head-like ellipsoid, with gravity, curl, and a width
+//! and opacity of their own.
+
+use super::noise::hash01;
+use crate::strands::Strands;
+
+/// Half-axes of the head ellipsoid (x across, y up, z forward), in centimetres.
+const HEAD: [f32; 3] = [8.0, 10.5, 9.5];
+
+/// `count` strands of `points` points each. Roots cover the scalp (the ellipsoid above the
+/// ears, the face left bare); each strand leaves along the normal, bends down under gravity,
+/// curls around its growth direction, and is pushed out of the head. Per-strand width (0.8–1.2 ×
+/// the base 0.016 cm) and opacity (0.6–1.0 × 0.366) go into per-point arrays, tapered to 40% at
+/// the tip. Deterministic in `seed`.
+pub fn hair(count: u32, points: u16, seed: u32) -> Strands {
+    let n = points as usize;
+    let mut out = Strands {
+        segments: vec![points - 1; count as usize],
+        points: Vec::with_capacity(count as usize * n),
+        thickness: Some(Vec::with_capacity(count as usize * n)),
+        transparency: Some(Vec::with_capacity(count as usize * n)),
+        color: None,
+        default_thickness: 0.016,
+        default_transparency: 1.0 - 0.366,
+        default_color: [0.35, 0.22, 0.12],
+    };
+    let mut s = 0u32;
+    let mut attempt = 0i32;
+    while s < count {
+        attempt += 1;
+        let r = |k: u32| hash01(attempt, k as i32, seed);
+        // Uniform direction on the sphere, mapped onto the ellipsoid.
+        let (zu, az) = (2.0 * r(1) - 1.0, std::f32::consts::TAU * r(2));
+        let ring = (1.0 - zu * zu).sqrt();
+        let d = [ring * az.cos(), zu, ring * az.sin()];
+        // Scalp: above the ears, and not the face (front, below the brow).
+        if d[1] < -0.1 || (d[2] > 0.55 && d[1] < 0.55) {
+            continue;
+        }
+        let root = [d[0] * HEAD[0], d[1] * HEAD[1], d[2] * HEAD[2]];
+        let mut normal = [root[0] / (HEAD[0] * HEAD[0]), root[1] / (HEAD[1] * HEAD[1]), root[2] / (HEAD[2] * HEAD[2])];
+        let len = (normal[0] * normal[0] + normal[1] * normal[1] + normal[2] * normal[2]).sqrt();
+        normal.iter_mut().for_each(|c| *c /= len);
+        let length = 14.0 + 14.0 * r(3);
+        let step = length / (n - 1) as f32;
+        let (curl_r, curl_f, curl_p) = (0.25 + 0.5 * r(4), 1.5 + 2.5 * r(5), std::f32::consts::TAU * r(6));
+        let width = 0.016 * (0.8 + 0.4 * r(7));
+        let transparency = 1.0 - 0.366 * (0.6 + 0.4 * r(8));
+        let mut p = root;
+        let mut dir = normal;
+        for i in 0..n {
+            let t = i as f32 / (n - 1) as f32;
+            // Curl: a small circle in the plane across the growth direction.
+            let a = curl_p + curl_f * std::f32::consts::TAU * t;
+            let curl = [curl_r * a.cos() * t, 0.0, curl_r * a.sin() * t];
+            let mut q = [p[0] + curl[0], p[1] + curl[1], p[2] + curl[2]];
+            push_out(&mut q);
+            out.points.push(q);
+            out.thickness.as_mut().expect("set above").push(width * (1.0 - 0.6 * t));
+            out.transparency.as_mut().expect("set above").push(transparency);
+            // Gravity turns the direction downward as the strand grows.
+            dir[1] -= 0.18;
+            let l = (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
+            dir.iter_mut().for_each(|c| *c /= l);
+            for k in 0..3 {
+                p[k] += dir[k] * step;
+            }
+            push_out(&mut p);
+        }
+        s += 1;
+    }
+    out
+}
+
+/// Moves a point that is inside the head (slightly inflated) onto its surface, radially.
+fn push_out(p: &mut [f32; 3]) {
+    let e = ((p[0] / (HEAD[0] * 1.03)).powi(2) + (p[1] / (HEAD[1] * 1.03)).powi(2) + (p[2] / (HEAD[2] * 1.03)).powi(2))
+        .sqrt();
+    if e < 1.0 && e > 0.0 {
+        p.iter_mut().for_each(|c| *c /= e);
+    }
+}
