@@ -79,20 +79,9 @@ fn read_back(
         cache: None,
     });
     let params: Vec<u8> = [level, w, h, slices].iter().flat_map(|v| v.to_le_bytes()).collect();
-    let uniform = g.device.create_buffer(&wgpu::BufferDescriptor {
-        label: None,
-        size: 16,
-        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    g.queue.write_buffer(&uniform, 0, &params);
+    let uniform = g.buffer(16, wgpu::BufferUsages::UNIFORM, Some(&params));
     let count = (w * h * slices * channels) as u64;
-    let out = g.device.create_buffer(&wgpu::BufferDescriptor {
-        label: None,
-        size: count * 4,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
+    let out = g.buffer(count * 4, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC, None);
     let bind = g.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: None,
         layout: &pipeline.get_bind_group_layout(0),
@@ -102,14 +91,7 @@ fn read_back(
             wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) },
         ],
     });
-    let mut enc = g.device.create_command_encoder(&Default::default());
-    {
-        let mut pass = enc.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        pass.dispatch_workgroups(w.div_ceil(4), h.div_ceil(4), slices);
-    }
-    g.queue.submit([enc.finish()]);
+    g.dispatch(&pipeline, &bind, (w.div_ceil(4), h.div_ceil(4), slices));
     g.read_buffer(&out).chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect()
 }
 
@@ -328,14 +310,7 @@ fn horizon_shader_agrees_with_its_cpu_reference() {
     let Some(g) = gpu("horizon_shader_agrees_with_its_cpu_reference") else { return };
     let gpu_bundle = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
     let view = &gpu_bundle.textures["cylinders.horizon"].view;
-    let sampler = g.device.create_sampler(&wgpu::SamplerDescriptor {
-        address_mode_u: wgpu::AddressMode::Repeat,
-        address_mode_v: wgpu::AddressMode::Repeat,
-        address_mode_w: wgpu::AddressMode::Repeat,
-        mag_filter: wgpu::FilterMode::Linear,
-        min_filter: wgpu::FilterMode::Linear,
-        ..Default::default()
-    });
+    let sampler = hikage_runtime::horizon::horizon_sampler(&g.device);
     let module = g.device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("horizon test"),
         source: wgpu::ShaderSource::Wgsl(format!("{HORIZON_WGSL}\n{HORIZON_TEST}").into()),
@@ -349,19 +324,8 @@ fn horizon_shader_agrees_with_its_cpu_reference() {
         cache: None,
     });
     let bytes: Vec<u8> = samples.iter().flat_map(|v| v.to_le_bytes()).collect();
-    let input = g.device.create_buffer(&wgpu::BufferDescriptor {
-        label: None,
-        size: bytes.len() as u64,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    g.queue.write_buffer(&input, 0, &bytes);
-    let out = g.device.create_buffer(&wgpu::BufferDescriptor {
-        label: None,
-        size: cases.len() as u64 * 4,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
+    let input = g.buffer(bytes.len() as u64, wgpu::BufferUsages::STORAGE, Some(&bytes));
+    let out = g.buffer(cases.len() as u64 * 4, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC, None);
     let bind = g.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: None,
         layout: &pipeline.get_bind_group_layout(0),
@@ -372,14 +336,7 @@ fn horizon_shader_agrees_with_its_cpu_reference() {
             wgpu::BindGroupEntry { binding: 3, resource: out.as_entire_binding() },
         ],
     });
-    let mut enc = g.device.create_command_encoder(&Default::default());
-    {
-        let mut pass = enc.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        pass.dispatch_workgroups((cases.len() as u32).div_ceil(64), 1, 1);
-    }
-    g.queue.submit([enc.finish()]);
+    g.dispatch(&pipeline, &bind, ((cases.len() as u32).div_ceil(64), 1, 1));
     let lit: Vec<u32> =
         g.read_buffer(&out).chunks_exact(4).map(|c| u32::from_le_bytes(c.try_into().unwrap())).collect();
 

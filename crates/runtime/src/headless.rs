@@ -99,4 +99,31 @@ impl Headless {
         let bytes = self.read_buffer(&buffer);
         bytes.chunks_exact(padded as usize).flat_map(|r| r[..row as usize].to_vec()).collect()
     }
+
+    /// A buffer of `size` bytes for `usage`, filled with `contents` when given.
+    pub fn buffer(&self, size: u64, usage: wgpu::BufferUsages, contents: Option<&[u8]>) -> wgpu::Buffer {
+        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: None,
+            size,
+            usage: usage | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        if let Some(bytes) = contents {
+            self.queue.write_buffer(&buffer, 0, bytes);
+        }
+        buffer
+    }
+
+    /// Runs one compute dispatch of `pipeline` with bind group 0 and waits for nothing: reads
+    /// through [`read_buffer`](Self::read_buffer) are ordered after it.
+    pub fn dispatch(&self, pipeline: &wgpu::ComputePipeline, bind: &wgpu::BindGroup, groups: (u32, u32, u32)) {
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, bind, &[]);
+            pass.dispatch_workgroups(groups.0, groups.1, groups.2);
+        }
+        self.queue.submit([encoder.finish()]);
+    }
 }

@@ -11,6 +11,20 @@ use hikage_bundle::{TextureData, TextureDimension};
 /// WGSL source of the horizon-shadow functions; include it in a shader module.
 pub const HORIZON_WGSL: &str = include_str!("shaders/horizon.wgsl");
 
+/// The sampler the horizon texture wants: linear filtering, `Repeat` on every axis (on `w` so
+/// that directions interpolate and wrap 2π → 0; on `u`, `v` for tiling bump maps).
+pub fn horizon_sampler(device: &wgpu::Device) -> wgpu::Sampler {
+    device.create_sampler(&wgpu::SamplerDescriptor {
+        label: Some("hikage horizon"),
+        address_mode_u: wgpu::AddressMode::Repeat,
+        address_mode_v: wgpu::AddressMode::Repeat,
+        address_mode_w: wgpu::AddressMode::Repeat,
+        mag_filter: wgpu::FilterMode::Linear,
+        min_filter: wgpu::FilterMode::Linear,
+        ..Default::default()
+    })
+}
+
 /// Eq. (1): normal curvature along the light's azimuth; `(cos_phi, sin_phi)` is measured from
 /// the first principal direction.
 pub fn horizon_local_curvature(k1: f32, k2: f32, cos_phi: f32, sin_phi: f32) -> f32 {

@@ -141,21 +141,9 @@ pub fn render(
         0.0,
         0.0,
     ];
-    let ubuf = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("scene"),
-        size: uniform.len() as u64 * 4,
-        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    gpu.queue.write_buffer(&ubuf, 0, &uniform.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>());
-    let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-        address_mode_u: wgpu::AddressMode::Repeat,
-        address_mode_v: wgpu::AddressMode::Repeat,
-        address_mode_w: wgpu::AddressMode::Repeat,
-        mag_filter: wgpu::FilterMode::Linear,
-        min_filter: wgpu::FilterMode::Linear,
-        ..Default::default()
-    });
+    let bytes: Vec<u8> = uniform.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let ubuf = gpu.buffer(bytes.len() as u64, wgpu::BufferUsages::UNIFORM, Some(&bytes));
+    let sampler = crate::horizon::horizon_sampler(device);
     let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: None,
         layout: &pipeline.get_bind_group_layout(0),

@@ -57,11 +57,11 @@ pub struct HeightfieldJob {
     pub format: HeightFormat,
 }
 
-fn unit_texel() -> (f32, f32) {
+pub(crate) fn unit_texel() -> (f32, f32) {
     (1.0, 1.0)
 }
 
-fn one() -> f32 {
+pub(crate) fn one() -> f32 {
     1.0
 }
 

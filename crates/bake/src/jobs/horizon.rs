@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use hikage_bundle::{AmbientOcclusionSettings, AssetKind, EdgeMode, HorizonSettings as HorizonInfo, Settings};
 use serde::{Deserialize, Serialize};
 
-use super::heightfield::{HeightFormat, HeightfieldJob, check_world_units, settings_of};
+use super::heightfield::{HeightFormat, HeightfieldJob, check_world_units, one, settings_of, unit_texel};
 use super::{BakedAsset, BakedPayload, JobContext};
 use crate::error::BakeError;
 use crate::horizon::{self, DEFAULT_NEAR_FIELD, HorizonFormat, HorizonSettings, OPEN_SKY_SLOPE};
@@ -58,12 +58,6 @@ pub struct HorizonJob {
 /// Version of the horizon job (the baker's algorithm version and the job's own layout).
 pub const ALGORITHM_VERSION: u32 = horizon::ALGORITHM_VERSION;
 
-fn unit_texel() -> (f32, f32) {
-    (1.0, 1.0)
-}
-fn one() -> f32 {
-    1.0
-}
 fn default_directions() -> u32 {
     32
 }
