@@ -197,13 +197,26 @@ pub struct HorizonSettings {
 impl HorizonSettings {
     /// Decodes a stored texel `(c0, c1)` (as the texture format returns it) to `(tan β, d)`.
     pub fn decode(&self, format: crate::TextureFormat, c0: f32, c1: f32) -> (f32, f32) {
-        match format {
-            crate::TextureFormat::Rg8Unorm => {
-                let slope = if c0 <= 0.0 { self.open_sky_slope } else { ((c0 - 0.5) * std::f32::consts::PI).tan() };
-                (slope, c1 * self.distance_scale)
-            }
-            _ => (c0, c1),
+        decode_horizon_texel(format, c0, c1, self.distance_scale, self.open_sky_slope)
+    }
+}
+
+/// Decodes a stored horizon texel `(c0, c1)` (as the texture format returns it) to
+/// `(tan β, d)`: float formats store them as they are; `Rg8Unorm` stores `β/π + 0.5` (0 is open
+/// sky) and `d / distance_scale`. The one definition the baker's decoder and export share.
+pub fn decode_horizon_texel(
+    format: crate::TextureFormat,
+    c0: f32,
+    c1: f32,
+    distance_scale: f32,
+    open_sky_slope: f32,
+) -> (f32, f32) {
+    match format {
+        crate::TextureFormat::Rg8Unorm => {
+            let slope = if c0 <= 0.0 { open_sky_slope } else { ((c0 - 0.5) * std::f32::consts::PI).tan() };
+            (slope, c1 * distance_scale)
         }
+        _ => (c0, c1),
     }
 }
 

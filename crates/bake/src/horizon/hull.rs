@@ -35,8 +35,8 @@ fn hit(o: Pt, p: Pt) -> Hit {
     Hit { rise: p.h - o.h, run: p.x - o.x }
 }
 
-/// Walks a hull stored in `x` order (`pts[i].x` increasing with `i`) from `hint` to the vertex
-/// of greatest slope from `o`.
+/// Walks a hull stored in `x` order (increasing or decreasing) from `hint` to the vertex of
+/// greatest slope from `o`.
 #[inline]
 fn walk(pts: &[Pt], o: Pt, hint: &mut usize) -> Option<Hit> {
     if pts.is_empty() {
@@ -100,32 +100,9 @@ impl SuffixHull {
     /// The vertex of greatest slope from `o`, walking from `hint` (updated).
     #[inline]
     pub fn tangent(&self, o: Pt, hint: &mut usize) -> Option<Hit> {
-        // Walk in increasing x, i.e. from the end of `pts` backwards: mirror the index.
-        let n = self.pts.len();
-        if n == 0 {
-            return None;
-        }
-        let mut i = n - 1 - (*hint).min(n - 1);
-        let at = |k: usize| self.pts[n - 1 - k];
-        let mut best = hit(o, at(i));
-        while i + 1 < n {
-            let next = hit(o, at(i + 1));
-            if !next.steeper_than(&best) {
-                break;
-            }
-            best = next;
-            i += 1;
-        }
-        while i > 0 {
-            let prev = hit(o, at(i - 1));
-            if !prev.steeper_than(&best) {
-                break;
-            }
-            best = prev;
-            i -= 1;
-        }
-        *hint = n - 1 - i;
-        Some(best)
+        // Slopes are unimodal along the hull in either order, and stack indices of surviving
+        // vertices do not move when samples are pushed, so the hint stays meaningful.
+        walk(&self.pts, o, hint)
     }
 }
 

@@ -307,14 +307,7 @@ pub fn decode(texture: &HorizonTexture, k: usize, row: usize, col: usize) -> (f3
     let i = ((k * desc.height as usize + row) * desc.width as usize + col) * tb;
     let bytes = &texture.texture.levels[0][i..i + tb];
     let (a, b) = (desc.format.decode_channel(bytes, 0), desc.format.decode_channel(bytes, 1));
-    match desc.format {
-        TextureFormat::Rg8Unorm => {
-            let beta = (a - 0.5) * std::f32::consts::PI;
-            let slope = if a <= 0.0 { OPEN_SKY_SLOPE } else { beta.tan() };
-            (slope, b * texture.distance_scale)
-        }
-        _ => (a, b),
-    }
+    hikage_bundle::manifest::decode_horizon_texel(desc.format, a, b, texture.distance_scale, OPEN_SKY_SLOPE)
 }
 
 /// Ambient occlusion from horizons: per texel, the occluded share of the cosine-weighted
