@@ -134,6 +134,12 @@ fn exr_with_nan_or_truncated() {
     values[0] = f32::INFINITY;
     write_exr(&dir, "data/inf.exr", 8, 6, values, "Y");
     bake_fails_with(&dir, "Heightfield(id: \"inf\", input: \"data/inf.exr\")", 1, &["data/inf.exr", "pixel (0, 0)"]);
+    // The relief baker reads through the same loader, and wants heights in [0, 1].
+    bake_fails_with(&dir, "Relief(id: \"nan\", input: \"data/nan.exr\")", 1, &["data/nan.exr", "pixel (3, 2)"]);
+    write_exr(&dir, "data/odd.exr", 8, 6, vec![0.5f32; 48], "Y");
+    bake_fails_with(&dir, "Relief(id: \"odd\", input: \"data/odd.exr\")", 1, &["data/odd.exr", "power-of-two", "8×6"]);
+    write_exr(&dir, "data/tall.exr", 8, 8, vec![2.0f32; 64], "Y");
+    bake_fails_with(&dir, "Relief(id: \"tall\", input: \"data/tall.exr\")", 1, &["data/tall.exr", "[0, 1]", "is 2"]);
 
     let exr = std::fs::read(crate::util::repo().join("data/dunes.exr")).unwrap();
     dir.write("data/cut.exr", &exr[..exr.len() * 2 / 3]);
@@ -231,7 +237,7 @@ fn unknown_major_version_is_refused_and_never_overwritten() {
     let out = dir.run_expecting(&["validate", "bundle"], 1);
     let current = hikage_bundle::FormatVersion::CURRENT.to_string();
     assert!(
-        stderr(&out).contains("format 9.1") && stderr(&out).contains(&format!("format {current}")),
+        stderr(&out).contains("format 9.2") && stderr(&out).contains(&format!("format {current}")),
         "{}",
         stderr(&out)
     );

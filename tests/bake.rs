@@ -39,6 +39,11 @@ fn default_pipeline_bakes_validates_and_inspects() {
                     assert!(a["vertex_count"].as_u64().unwrap() > 1000, "{a}");
                     assert_eq!(a["index_count"].as_u64().unwrap() % 3, 0);
                 }
+                "relief" => {
+                    assert_eq!(a["format"], "R8Unorm");
+                    assert_eq!(a["dimensions"], serde_json::json!([32, 32, 1, 512]), "{a}");
+                }
+                "max_mip" => assert_eq!(a["levels"], 9, "{a}"),
                 other => panic!("unexpected kind {other}"),
             }
         }
@@ -83,18 +88,18 @@ fn flipped_payload_byte_fails_validation_naming_the_asset() {
     let payload = std::fs::read_dir(dir.path("bundle"))
         .unwrap()
         .map(|e| e.unwrap().file_name().into_string().unwrap())
-        .find(|n| n.starts_with("relief_bricks."))
+        .find(|n| n.starts_with("relief_bricks.maxmip."))
         .unwrap();
     let mut bytes = dir.read(&format!("bundle/{payload}"));
     let i = bytes.len() / 2;
     bytes[i] ^= 0x01;
     dir.write(&format!("bundle/{payload}"), bytes);
     let out = dir.run_expecting(&["validate", "bundle"], 1);
-    assert!(stdout(&out).contains("`relief_bricks`") && stdout(&out).contains("BLAKE3"), "{}", stdout(&out));
+    assert!(stdout(&out).contains("`relief_bricks.maxmip`") && stdout(&out).contains("BLAKE3"), "{}", stdout(&out));
     let out = dir.run_expecting(&["validate", "bundle", "--format", "json"], 1);
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(json["valid"], false);
-    assert_eq!(json["problems"][0]["asset"], "relief_bricks");
+    assert_eq!(json["problems"][0]["asset"], "relief_bricks.maxmip");
     // The tampered asset is baked again rather than reused.
     let out = dir.run(&["bake"]);
     assert!(stdout(&out).contains("baked 1,"), "{}", stdout(&out));
@@ -109,11 +114,12 @@ fn changed_input_rebakes_one_job_and_removes_its_stale_payload() {
     // Replace relief_fbm.png by another valid grayscale PNG.
     std::fs::copy(dir.path("data/relief_bricks.png"), dir.path("data/relief_fbm.png")).unwrap();
     let out = dir.run(&["bake"]);
-    assert!(stdout(&out).contains("baked 1,") && stdout(&out).contains("removed 1"), "{}", stdout(&out));
+    assert!(stdout(&out).contains("baked 1,") && stdout(&out).contains("removed 2"), "{}", stdout(&out));
     let after = snapshot(&dir.path("bundle"));
     assert_eq!(after.len(), before.len());
     let old: Vec<_> = before.keys().filter(|k| k.starts_with("relief_fbm.")).collect();
-    assert!(!after.contains_key(old[0].as_str()), "stale payload kept");
+    assert_eq!(old.len(), 2);
+    assert!(old.iter().all(|k| !after.contains_key(k.as_str())), "stale payload kept");
     dir.run(&["validate", "bundle"]);
 }
 
@@ -286,4 +292,37 @@ fn horizon_one_shot_refuses_bad_settings() {
         assert!(stderr(&out).contains(needle), "{}", dir.explain(&full, &out, needle));
         assert!(!dir.path("b/bundle.ron").exists());
     }
+}
+
+#[test]
+fn relief_one_shot_adds_depth_maps_and_refuses_bad_settings() {
+    let dir = Dir::new("relief_one_shot");
+    dir.copy_data();
+    for (args, needle) in [
+        (vec!["--theta", "0"], "theta must be 1–128"),
+        (vec!["--phi", "100000"], "phi must be 1–128"),
+        (vec!["--theta", "128", "--phi", "128"], "at most 2048 directions"),
+        (vec!["--size", "48"], "power of two"),
+        (vec!["--size", "512"], "at most the map width 256"),
+        (vec!["--depth-scale", "0"], "depth_scale"),
+    ] {
+        let mut full = vec!["relief", "data/relief_bricks.png", "--out", "b"];
+        full.extend(args);
+        let out = dir.run_expecting(&full, 1);
+        assert!(stderr(&out).contains(needle), "{}", dir.explain(&full, &out, needle));
+        assert!(!dir.path("b/bundle.ron").exists());
+    }
+    let args = ["relief", "data/terrain.png", "--out", "c", "--theta", "2", "--phi", "3", "--size", "64"];
+    dir.run(&args);
+    let json = dir.run(&["inspect", "c", "--format", "json"]);
+    let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    let text = v.to_string();
+    assert!(text.contains("terrain.relief") && text.contains("terrain.maxmip"), "{text}");
+    dir.run(&["validate", "c"]);
+    // 2 × 3 layers of 64 × 64 8-bit depths, the direction table alongside.
+    dir.run(&["export", "c", "terrain.relief", "--raw", "--out", "d.f32"]);
+    assert_eq!(dir.read("d.f32").len(), 6 * 64 * 64 * 4);
+    let manifest = String::from_utf8(dir.read("c/bundle.ron")).unwrap();
+    let table: String = manifest.split_whitespace().collect();
+    assert!(table.contains("directions:[(22.5,0.0),(22.5,120.0),(22.5,240.0),(67.5,0.0),"), "{manifest}");
 }

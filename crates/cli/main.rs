@@ -13,7 +13,8 @@ use clap::{Parser, Subcommand, ValueEnum};
 use hikage_bake::BakeError;
 use hikage_bake::export::{ExportFormat, export_texture};
 use hikage_bake::horizon::HorizonFormat;
-use hikage_bake::pipeline::{HorizonJob, Job};
+use hikage_bake::pipeline::{HorizonJob, Job, ReliefJob};
+use hikage_bake::relief::ReliefFormat;
 use hikage_bake::run::{RunOptions, check_pipeline, run_one_job, run_pipeline};
 use hikage_bundle::EdgeMode;
 use hikage_bundle::{Bundle, BundleError};
@@ -115,6 +116,44 @@ enum Command {
         #[arg(long)]
         force: bool,
     },
+    /// Bake relief-mapping depth maps (one per hemisphere direction) and the max-mip pyramid of
+    /// one heightfield into BUNDLE (assets `<id>.relief` and `<id>.maxmip` added or replaced).
+    #[command(after_help = EXIT_CODES)]
+    Relief {
+        /// Heightfield image (PNG 8/16-bit or OpenEXR; samples in [0, 1], power-of-two sides).
+        input: PathBuf,
+        /// Bundle directory.
+        #[arg(long)]
+        out: PathBuf,
+        /// Asset id prefix (default: the input's file stem).
+        #[arg(long)]
+        id: Option<String>,
+        /// Rows of zenith angle θ (1–128); θ_i = (i + ½)·90°/N.
+        #[arg(long, default_value_t = 32)]
+        theta: u32,
+        /// Azimuths φ per row (1–128); φ_j = 360°·j/M.
+        #[arg(long, default_value_t = 16)]
+        phi: u32,
+        /// Width of the stored maps: a power of two up to the map width (MIN-downscaled);
+        /// default 32, or the map width when smaller.
+        #[arg(long)]
+        size: Option<u32>,
+        /// Relief thickness as a share of the map width.
+        #[arg(long, default_value_t = 0.1)]
+        depth_scale: f32,
+        /// Storage: r8 (default, the paper's memory) or r16f; both rounded down.
+        #[arg(long, value_enum, default_value_t = ReliefFormatArg::R8)]
+        format: ReliefFormatArg,
+        /// Channel of the input image to take.
+        #[arg(long)]
+        channel: Option<String>,
+        /// Worker threads (default: one per core).
+        #[arg(long, short = 'j', value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+        jobs: Option<u16>,
+        /// Bake even if unchanged; replace an unreadable bundle.
+        #[arg(long)]
+        force: bool,
+    },
     /// Export a texture asset as OpenEXR (one layer per slice) or raw little-endian f32.
     #[command(after_help = EXIT_CODES)]
     Export {
@@ -146,6 +185,12 @@ enum FormatArg {
     Rg16f,
     Rg32f,
     Rg8,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum ReliefFormatArg {
+    R8,
+    R16f,
 }
 
 fn parse_texel_size(s: &str) -> Result<(f32, f32), String> {
@@ -221,8 +266,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             jobs,
             force,
         } => {
-            let id =
-                id.unwrap_or_else(|| input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default());
+            let id = id.unwrap_or_else(|| stem(&input));
             let mut job = HorizonJob::new(&id, input);
             job.channel = channel;
             job.texel_size = texel_size.unwrap_or((1.0, 1.0));
@@ -243,7 +287,26 @@ fn run(cli: Cli) -> Result<(), Failure> {
             job.near_field = near_field;
             one_shot(Job::Horizon(job), &out, force, jobs)
         }
+        Command::Relief { input, out, id, theta, phi, size, depth_scale, format, channel, jobs, force } => {
+            let id = id.unwrap_or_else(|| stem(&input));
+            let mut job = ReliefJob::new(&id, input);
+            job.channel = channel;
+            job.theta = theta;
+            job.phi = phi;
+            job.size = size;
+            job.depth_scale = depth_scale;
+            job.format = match format {
+                ReliefFormatArg::R8 => ReliefFormat::R8Unorm,
+                ReliefFormatArg::R16f => ReliefFormat::R16Float,
+            };
+            one_shot(Job::Relief(job), &out, force, jobs)
+        }
     }
+}
+
+/// The default asset id of a one-shot bake: the input's file stem.
+fn stem(input: &Path) -> String {
+    input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
 }
 
 fn one_shot(job: Job, out: &Path, force: bool, jobs: Option<u16>) -> Result<(), Failure> {

@@ -27,6 +27,7 @@ pub mod horizon;
 pub mod jobs;
 pub mod mesh;
 pub mod pipeline;
+pub mod relief;
 pub mod run;
 pub mod strands;
 pub mod synth;

@@ -21,6 +21,7 @@ use crate::error::BakeError;
 pub use crate::jobs::curvature::CurvatureJob;
 pub use crate::jobs::heightfield::{HeightFormat, HeightfieldJob};
 pub use crate::jobs::horizon::HorizonJob;
+pub use crate::jobs::relief::ReliefJob;
 
 /// A parsed pipeline file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -63,6 +64,8 @@ pub enum Job {
     Horizon(HorizonJob),
     /// Per-vertex principal curvatures of an OBJ mesh with UVs.
     Curvature(CurvatureJob),
+    /// Bake relief-mapping depth maps and a max-mip pyramid from a heightfield.
+    Relief(ReliefJob),
 }
 
 /// A pipeline with the file it came from.

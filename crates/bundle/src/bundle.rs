@@ -220,6 +220,14 @@ pub(crate) fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(St
                         t.dimension == TextureDimension::D2 && t.format.channels() == 1
                     }
                     AssetKind::Horizon => t.dimension == TextureDimension::D3 && t.format.channels() == 2,
+                    AssetKind::Relief => t.dimension == TextureDimension::D2Array && t.format.channels() == 1,
+                    AssetKind::MaxMip => {
+                        t.dimension == TextureDimension::D2
+                            && t.format.channels() == 1
+                            && t.width.is_power_of_two()
+                            && t.height.is_power_of_two()
+                            && t.levels == crate::relief::MaxMip::level_count_for(t.width, t.height)
+                    }
                     _ => true,
                 };
                 if !shape_ok {
@@ -228,6 +236,9 @@ pub(crate) fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(St
                         kind.name(),
                         match kind {
                             AssetKind::Horizon => "a two-channel D3 texture",
+                            AssetKind::Relief => "a one-channel D2Array texture",
+                            AssetKind::MaxMip =>
+                                "a one-channel D2 texture with power-of-two sides and a full max-mip chain",
                             _ => "a one-channel D2 texture",
                         }
                     ));
@@ -235,6 +246,21 @@ pub(crate) fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(St
                 if let (AssetKind::Horizon, Settings::Horizon(h)) = (kind, &a.settings) {
                     if h.directions != t.depth {
                         bad(format!("{} directions but the texture is {} deep", h.directions, t.depth));
+                    }
+                }
+                if let (AssetKind::Relief, Settings::Relief(r)) = (kind, &a.settings) {
+                    let layers = r.theta as u64 * r.phi as u64;
+                    if layers != t.layers as u64 || r.directions.len() as u64 != layers {
+                        bad(format!(
+                            "{}×{} directions and a table of {} but the texture has {} layers",
+                            r.theta,
+                            r.phi,
+                            r.directions.len(),
+                            t.layers
+                        ));
+                    }
+                    if !(r.depth_scale.is_finite() && r.depth_scale > 0.0) {
+                        bad(format!("depth_scale {} must be finite and positive", r.depth_scale));
                     }
                 }
             }
@@ -254,6 +280,8 @@ pub(crate) fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(St
                 | (Settings::Horizon(_), AssetKind::Horizon)
                 | (Settings::AmbientOcclusion(_), AssetKind::AmbientOcclusion)
                 | (Settings::Curvature(_), AssetKind::Curvature)
+                | (Settings::Relief(_), AssetKind::Relief)
+                | (Settings::MaxMip(_), AssetKind::MaxMip)
                 | (Settings::Generic, AssetKind::Texture | AssetKind::Mesh)
         );
         if !settings_ok {

@@ -33,6 +33,7 @@ mod limits;
 pub mod manifest;
 pub mod mesh;
 mod names;
+pub mod relief;
 pub mod texture;
 pub mod validate;
 mod writer;
@@ -42,7 +43,7 @@ pub use error::BundleError;
 pub use limits::Limits;
 pub use manifest::{
     AmbientOcclusionSettings, Asset, AssetKind, CurvatureSettings, EdgeMode, FormatVersion, HeightfieldSettings,
-    HorizonSettings, MANIFEST_FILE, Manifest, Payload, Settings,
+    HorizonSettings, MANIFEST_FILE, Manifest, MaxMipSettings, Payload, ReliefSettings, Settings,
 };
 pub use mesh::{Accessor, ComponentType, MeshData, MeshDesc};
 pub use names::{is_valid_asset_id, payload_file_name};

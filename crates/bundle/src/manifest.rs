@@ -27,8 +27,8 @@ pub struct FormatVersion {
 
 impl FormatVersion {
     /// The version this crate writes and reads. 1.1 added the `Horizon`, `AmbientOcclusion`
-    /// and `Curvature` kinds.
-    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 1 };
+    /// and `Curvature` kinds; 1.2 the `Relief` and `MaxMip` kinds.
+    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 2 };
 }
 
 impl fmt::Display for FormatVersion {
@@ -65,6 +65,14 @@ pub enum AssetKind {
     /// and `principal2` (2 each: the principal directions in the vertex's texture frame, as
     /// components along the unit tangents of +u and +v), and U32 triangle indices.
     Curvature,
+    /// Relief-mapping depth maps (seed 003): a one-channel 2D-array texture, one layer per
+    /// hemisphere direction ([`crate::relief::ReliefDirections`]), each texel the normalised
+    /// depth of the first hit of the ray entering the top plane there, MIN-downscaled so it never
+    /// lies deeper than a hit.
+    Relief,
+    /// A max-mip pyramid of a heightfield: a one-channel 2D texture whose level 0 holds the
+    /// samples and each further mip level the largest of the 2×2 texels below.
+    MaxMip,
     /// A texture with no hikage-specific meaning (tests, user data).
     Texture,
     /// A mesh with no hikage-specific meaning.
@@ -79,6 +87,8 @@ impl AssetKind {
             AssetKind::Horizon => "horizon",
             AssetKind::AmbientOcclusion => "ambient_occlusion",
             AssetKind::Curvature => "curvature",
+            AssetKind::Relief => "relief",
+            AssetKind::MaxMip => "max_mip",
             AssetKind::Texture => "texture",
             AssetKind::Mesh => "mesh",
         }
@@ -147,6 +157,42 @@ pub enum Settings {
     AmbientOcclusion(AmbientOcclusionSettings),
     /// Curvature of a mesh.
     Curvature(CurvatureSettings),
+    /// Relief depth maps.
+    Relief(ReliefSettings),
+    /// A max-mip pyramid.
+    MaxMip(MaxMipSettings),
+}
+
+/// How a set of relief depth maps was baked (seed 003).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ReliefSettings {
+    /// Id of the max-mip pyramid baked from the same heightfield (its level 0 is the surface).
+    pub max_mip: String,
+    /// Rows of zenith angle; layer `i × phi + j` is `θ_i = (i + ½)·90°/theta`.
+    pub theta: u32,
+    /// Azimuths per row; `φ_j = 360°·j/phi`, texel space from +u toward +v.
+    pub phi: u32,
+    /// Relief thickness as a share of the map width (depth 1 lies `depth_scale × width` texels
+    /// below the top plane).
+    pub depth_scale: f32,
+    /// Width and height of the heightfield the maps were traced on.
+    pub source_size: (u32, u32),
+    /// `(θ, φ)` of every layer in degrees, in layer order: the table a shader indexes.
+    pub directions: Vec<(f32, f32)>,
+}
+
+impl ReliefSettings {
+    /// The direction table as the shared geometry type.
+    pub fn table(&self) -> crate::relief::ReliefDirections {
+        crate::relief::ReliefDirections { theta: self.theta, phi: self.phi }
+    }
+}
+
+/// What a max-mip pyramid was built from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MaxMipSettings {
+    /// The heightfield samples' source channel, as in [`HeightfieldSettings`].
+    pub source_channel: String,
 }
 
 /// How a curvature mesh was computed.

@@ -3,6 +3,7 @@
 pub mod curvature;
 pub mod heightfield;
 pub mod horizon;
+pub mod relief;
 
 use std::path::{Path, PathBuf};
 
@@ -49,6 +50,7 @@ impl Job {
         match self {
             Job::Heightfield(j) => &j.id,
             Job::Horizon(j) => &j.id,
+            Job::Relief(j) => &j.id,
             Job::Curvature(j) => &j.id,
         }
     }
@@ -58,6 +60,7 @@ impl Job {
         match self {
             Job::Heightfield(_) => "heightfield",
             Job::Horizon(_) => "horizon",
+            Job::Relief(_) => "relief",
             Job::Curvature(_) => "curvature",
         }
     }
@@ -67,6 +70,7 @@ impl Job {
         match self {
             Job::Heightfield(_) => heightfield::ALGORITHM_VERSION,
             Job::Horizon(_) => horizon::ALGORITHM_VERSION,
+            Job::Relief(_) => relief::ALGORITHM_VERSION,
             Job::Curvature(_) => curvature::ALGORITHM_VERSION,
         }
     }
@@ -76,6 +80,7 @@ impl Job {
         match self {
             Job::Heightfield(j) => vec![base_dir.join(&j.input)],
             Job::Horizon(j) => vec![base_dir.join(&j.input)],
+            Job::Relief(j) => vec![base_dir.join(&j.input)],
             Job::Curvature(j) => vec![base_dir.join(&j.input)],
         }
     }
@@ -85,6 +90,7 @@ impl Job {
         match self {
             Job::Heightfield(j) => vec![j.id.clone()],
             Job::Horizon(j) => j.outputs(),
+            Job::Relief(j) => j.outputs(),
             Job::Curvature(j) => vec![j.id.clone()],
         }
     }
@@ -94,6 +100,7 @@ impl Job {
         match self {
             Job::Heightfield(j) => j.canonical_settings(),
             Job::Horizon(j) => j.canonical_settings(),
+            Job::Relief(j) => j.canonical_settings(),
             Job::Curvature(j) => j.canonical_settings(),
         }
     }
@@ -109,6 +116,7 @@ impl Job {
         match self {
             Job::Heightfield(j) => j.check(),
             Job::Horizon(j) => j.check(),
+            Job::Relief(j) => j.check(),
             Job::Curvature(_) => Ok(()),
         }
     }
@@ -118,6 +126,7 @@ impl Job {
         match self {
             Job::Heightfield(j) => j.load(ctx).map(|_| ()),
             Job::Horizon(j) => j.check_inputs(ctx),
+            Job::Relief(j) => j.check_inputs(ctx),
             Job::Curvature(j) => j.compute(ctx).map(|_| ()),
         }
     }
@@ -127,6 +136,7 @@ impl Job {
         match self {
             Job::Heightfield(j) => j.bake(ctx),
             Job::Horizon(j) => j.bake(ctx),
+            Job::Relief(j) => j.bake(ctx),
             Job::Curvature(j) => j.bake(ctx),
         }
     }

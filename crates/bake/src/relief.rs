@@ -1,0 +1,308 @@
+//! Relief-mapping depth maps (seed 003, Suzuki): for every hemisphere direction and every texel
+//! of the top plane, the normalised depth of the first hit of the ray entering there, MIN-
+//! downscaled (eq. 2) so a coarse map never lies deeper than a hit.
+//!
+//! Geometry (directions, the box surface, the max-mip pyramid) is
+//! [`hikage_bundle::relief`], shared with the runtime so both trace the same surface. Each bake
+//! ray is traced through the max-mip pyramid, `O(log N)` reads per ray rather than a march over
+//! every texel it crosses; the pyramid is written as its own asset for the runtime.
+//!
+//! The surface is traced on the heights as stored in the max-mip asset (half floats), so the
+//! maps describe exactly the surface a shader reads.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use hikage_bundle::relief::{MaxMip, ReliefDirections, ReliefRay, first_hit_maxmip};
+use hikage_bundle::{Supercompression, TextureData, TextureDesc, TextureDimension, TextureFormat};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::heightfield::Heightfield;
+
+/// Version of the relief baker; part of the input hash.
+pub const ALGORITHM_VERSION: u32 = 1;
+
+/// Largest count of zenith rows or azimuths accepted.
+pub const MAX_ANGLE_COUNT: u32 = 128;
+/// Largest number of directions (texture array layers; wgpu guarantees 256 by default,
+/// desktop devices 2048).
+pub const MAX_DIRECTIONS: u32 = 2048;
+
+/// Default width of the stored maps (the paper's 32², 192 KB).
+pub const DEFAULT_SIZE: u32 = 32;
+
+/// Storage of the depth maps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum ReliefFormat {
+    /// 8-bit depth, rounded down (the paper's memory).
+    #[default]
+    R8Unorm,
+    /// Half-float depth, rounded down.
+    R16Float,
+}
+
+impl ReliefFormat {
+    /// The texture format.
+    pub fn texture_format(self) -> TextureFormat {
+        match self {
+            ReliefFormat::R8Unorm => TextureFormat::R8Unorm,
+            ReliefFormat::R16Float => TextureFormat::R16Float,
+        }
+    }
+
+    /// The largest stored value not above `depth` (a stored depth must never overshoot a hit).
+    pub fn round_down(self, depth: f32) -> f32 {
+        match self {
+            ReliefFormat::R8Unorm => (depth * 255.0).floor().clamp(0.0, 255.0) / 255.0,
+            ReliefFormat::R16Float => f16_round_down(depth),
+        }
+    }
+}
+
+/// The largest half float not above `x` (for `x` in `[0, 1]`), as f32.
+pub fn f16_round_down(x: f32) -> f32 {
+    let h = half::f16::from_f32(x);
+    if h.to_f32() > x {
+        let below = half::f16::from_bits(h.to_bits() - 1);
+        if h.to_bits() & 0x7fff == 0 { 0.0 } else { below.to_f32() }
+    } else {
+        h.to_f32()
+    }
+}
+
+/// Settings of a relief bake.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReliefSettings {
+    /// Rows of zenith angle (1–128).
+    pub theta: u32,
+    /// Azimuths per row (1–128); `theta × phi` at most [`MAX_DIRECTIONS`].
+    pub phi: u32,
+    /// Width of the stored maps (a power of two, at most the map width); `None` is the paper's
+    /// 32, or the map width when that is smaller. The height follows the map's aspect.
+    pub size: Option<u32>,
+    /// Relief thickness as a share of the map width.
+    pub depth_scale: f32,
+    /// Storage.
+    pub format: ReliefFormat,
+}
+
+impl Default for ReliefSettings {
+    fn default() -> Self {
+        ReliefSettings { theta: 32, phi: 16, size: None, depth_scale: 0.1, format: ReliefFormat::R8Unorm }
+    }
+}
+
+impl ReliefSettings {
+    /// Checks the settings on their own (no map needed).
+    pub fn check(&self) -> Result<(), String> {
+        for (name, n) in [("theta", self.theta), ("phi", self.phi)] {
+            if n == 0 || n > MAX_ANGLE_COUNT {
+                return Err(format!("{name} must be 1–{MAX_ANGLE_COUNT}, found {n}"));
+            }
+        }
+        if self.theta * self.phi > MAX_DIRECTIONS {
+            return Err(format!(
+                "theta × phi must be at most {MAX_DIRECTIONS} directions (texture array layers), found {}",
+                self.theta * self.phi
+            ));
+        }
+        if !(self.depth_scale.is_finite() && self.depth_scale > 0.0 && self.depth_scale <= 16.0) {
+            return Err(format!("depth_scale must be finite, above 0 and at most 16, found {}", self.depth_scale));
+        }
+        if let Some(s) = self.size {
+            if !s.is_power_of_two() {
+                return Err(format!("size must be a power of two, found {s}"));
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks the settings against a `width × height` map: sides powers of two, size within.
+    pub fn check_for(&self, width: u32, height: u32) -> Result<(), String> {
+        self.check()?;
+        if !width.is_power_of_two() || !height.is_power_of_two() {
+            return Err(format!(
+                "relief maps tile, so the heightfield needs power-of-two sides, found {width}×{height}"
+            ));
+        }
+        if let Some(s) = self.size {
+            if s > width || height * s / width == 0 {
+                return Err(format!(
+                    "size {s} must be at most the map width {width} and leave at least one row of {height}"
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Width of the stored maps for a map `width` texels wide.
+    pub fn output_width(&self, width: u32) -> u32 {
+        self.size.unwrap_or(DEFAULT_SIZE.min(width))
+    }
+
+    /// The direction table.
+    pub fn directions(&self) -> ReliefDirections {
+        ReliefDirections { theta: self.theta, phi: self.phi }
+    }
+}
+
+/// The result of a relief bake.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BakedRelief {
+    /// Depth maps: one layer per direction, `size × size·H/W`.
+    pub depth: TextureData,
+    /// The max-mip pyramid of the heights (R16Float, full mip chain).
+    pub max_mip: TextureData,
+    /// Thickness of the relief in texels of the source map.
+    pub thickness: f32,
+}
+
+/// Heights as the max-mip asset stores them (half floats), checked to lie in `[0, 1]`.
+pub fn stored_heights(hf: &Heightfield) -> Result<Vec<f32>, String> {
+    if let Some((i, v)) = hf.samples.iter().enumerate().find(|(_, v)| !(0.0..=1.0).contains(*v)) {
+        return Err(format!(
+            "relief heights must lie in [0, 1] (depth = 1 − height); sample ({}, {}) is {v}",
+            i % hf.width as usize,
+            i / hf.width as usize
+        ));
+    }
+    Ok(hf.samples.iter().map(|&v| half::f16::from_f32(v).to_f32()).collect())
+}
+
+/// Level a bake ray's traversal starts at: rays start on the top plane, where the coarse
+/// blocks of any map with a peak near 1 are entered at once, so starting higher only adds reads;
+/// the traversal climbs when the ray crosses empty space.
+const BAKE_START_LEVEL: u32 = 3;
+
+/// First-hit depths of one direction, MIN-downscaled by `factor` (1 keeps every texel),
+/// row-major. Within a block only a hit shallower than the block's current minimum can change
+/// it, so each ray is traced no deeper than that: the result is the same as tracing every ray
+/// to its hit, at a fraction of the reads for grazing directions.
+pub fn trace_layer(mm: &MaxMip, dir: [f32; 3], thickness: f32, factor: u32) -> Vec<f32> {
+    let (w, h) = (mm.width(), mm.height());
+    let (ow, oh) = (w / factor, h / factor);
+    let start = BAKE_START_LEVEL.min(mm.levels() - 1);
+    let mut out = Vec::with_capacity(ow as usize * oh as usize);
+    for bj in 0..oh {
+        for bi in 0..ow {
+            let mut block_min = 1.0f32;
+            for j in bj * factor..(bj + 1) * factor {
+                for i in bi * factor..(bi + 1) * factor {
+                    let ray = ReliefRay { origin: [i as f32 + 0.5, j as f32 + 0.5], dir, thickness };
+                    let stop = block_min / ray.dz();
+                    let mut reads = 0;
+                    let s = first_hit_maxmip(mm, &ray, (0.0, stop), (start, 0), &mut reads);
+                    block_min = block_min.min(s * ray.dz());
+                }
+            }
+            out.push(block_min.min(1.0));
+        }
+    }
+    out
+}
+
+/// MIN-downscales a row-major `w × h` map by `factor` in both directions (eq. 2 applied
+/// `log2 factor` times).
+pub fn min_downscale(values: &[f32], w: u32, h: u32, factor: u32) -> Vec<f32> {
+    let (ow, oh) = ((w / factor) as usize, (h / factor) as usize);
+    let f = factor as usize;
+    let mut out = vec![f32::INFINITY; ow * oh];
+    for (j, row) in values.chunks_exact(w as usize).enumerate() {
+        let orow = &mut out[(j / f) * ow..(j / f + 1) * ow];
+        for (i, &v) in row.iter().enumerate() {
+            let o = &mut orow[i / f];
+            *o = o.min(v);
+        }
+    }
+    out
+}
+
+/// Bakes the depth maps and the max-mip pyramid. `progress` gets (layers done, layers).
+pub fn bake(hf: &Heightfield, s: &ReliefSettings, progress: &(dyn Fn(u64, u64) + Sync)) -> Result<BakedRelief, String> {
+    s.check_for(hf.width, hf.height)?;
+    let heights = stored_heights(hf)?;
+    let mm = MaxMip::new(hf.width, hf.height, heights)?;
+    let dirs = s.directions();
+    let thickness = s.depth_scale * hf.width as f32;
+    let out_w = s.output_width(hf.width);
+    let factor = hf.width / out_w;
+    let out_h = hf.height / factor;
+    let layers = dirs.layers();
+    let done = AtomicU64::new(0);
+    progress(0, layers as u64);
+    let maps: Vec<Vec<f32>> = (0..layers)
+        .into_par_iter()
+        .map(|layer| {
+            let small = trace_layer(&mm, dirs.direction(layer), thickness, factor);
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1, layers as u64);
+            small.into_iter().map(|d| s.format.round_down(d)).collect()
+        })
+        .collect();
+    let values: Vec<f32> = maps.concat();
+    let depth = TextureData::from_f32(
+        TextureDesc {
+            format: s.format.texture_format(),
+            dimension: TextureDimension::D2Array,
+            width: out_w,
+            height: out_h,
+            depth: 1,
+            layers,
+            levels: 1,
+            supercompression: Supercompression::None,
+            channels: vec!["depth".into()],
+        },
+        &values,
+    )
+    .map_err(|e| e.to_string())?;
+    Ok(BakedRelief { depth, max_mip: max_mip_texture(&mm), thickness })
+}
+
+/// The pyramid as an R16Float texture with one mip level per pyramid level.
+pub fn max_mip_texture(mm: &MaxMip) -> TextureData {
+    let levels: Vec<Vec<u8>> = (0..mm.levels())
+        .map(|l| mm.level(l).iter().flat_map(|&v| half::f16::from_f32(v).to_le_bytes()).collect())
+        .collect();
+    TextureData {
+        desc: TextureDesc {
+            format: TextureFormat::R16Float,
+            dimension: TextureDimension::D2,
+            width: mm.width(),
+            height: mm.height(),
+            depth: 1,
+            layers: 1,
+            levels: mm.levels(),
+            supercompression: Supercompression::None,
+            channels: vec!["height".into()],
+        },
+        levels,
+    }
+}
+
+/// Brute-force reference for tests and benchmarks: a march in steps of `1/steps_per_texel`
+/// texel from the texel centre, every step a height read, then the depth at the first step
+/// inside (no max-mip, no shared traversal).
+pub fn march_depth(
+    heights: &[f32],
+    (w, h): (u32, u32),
+    (i, j): (u32, u32),
+    dir: [f32; 3],
+    thickness: f32,
+    steps_per_texel: f32,
+) -> f32 {
+    let step = 1.0 / steps_per_texel;
+    let dz = dir[2] / thickness;
+    let mut s = 0.0f32;
+    loop {
+        let z = s * dz;
+        if z >= 1.0 {
+            return 1.0;
+        }
+        let u = (i as f32 + 0.5 + s * dir[0]).floor() as i64;
+        let v = (j as f32 + 0.5 + s * dir[1]).floor() as i64;
+        let height = heights[(v.rem_euclid(h as i64) * w as i64 + u.rem_euclid(w as i64)) as usize];
+        if z >= 1.0 - height {
+            return z;
+        }
+        s += step;
+    }
+}

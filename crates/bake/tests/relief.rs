@@ -1,0 +1,153 @@
+//! Relief depth maps against an independent brute-force march.
+
+use hikage_bake::heightfield::Heightfield;
+use hikage_bake::relief::{self, ReliefFormat, ReliefSettings, march_depth, min_downscale};
+use hikage_bake::synth;
+use hikage_bundle::relief::{MaxMip, ReliefDirections};
+
+fn families(n: u32) -> Vec<(&'static str, Vec<f32>)> {
+    vec![("fbm", synth::fbm_relief(n)), ("bricks", synth::bricks(n)), ("spikes", synth::spikes_and_walls(n))]
+}
+
+/// Full-resolution maps (size = map width, f16) against a march in 1/32-texel steps: the march
+/// finds the first step inside, at most one step after the true hit, and can miss a corner the
+/// ray clips between two steps; so the baked depth must never be deeper than the march's, and
+/// agree within a step on nearly all texel-directions.
+#[test]
+fn full_resolution_maps_agree_with_a_brute_force_march() {
+    let n = 64;
+    for (name, samples) in families(n) {
+        let hf = Heightfield::from_samples(n, n, samples);
+        let s = ReliefSettings { theta: 6, phi: 8, size: Some(n), depth_scale: 0.1, format: ReliefFormat::R16Float };
+        let baked = relief::bake(&hf, &s, &|_, _| {}).unwrap();
+        let stored = baked.depth.to_f32(0);
+        let heights = relief::stored_heights(&hf).unwrap();
+        let dirs = s.directions();
+        let thickness = s.depth_scale * n as f32;
+        let steps = 32.0;
+        let (mut close, mut total, mut worst) = (0usize, 0usize, 0.0f32);
+        for layer in 0..dirs.layers() {
+            let dir = dirs.direction(layer);
+            // One march step in depth units, plus the f16 round-down step.
+            let tol = dir[2] / thickness / steps + 2e-3;
+            for j in 0..n {
+                for i in 0..n {
+                    let baked = stored[(layer * n * n + j * n + i) as usize];
+                    let brute = march_depth(&heights, (n, n), (i, j), dir, thickness, steps);
+                    assert!(baked <= brute + 1e-4, "{name} layer {layer} texel ({i},{j}): baked {baked} brute {brute}");
+                    worst = worst.max(brute - baked);
+                    total += 1;
+                    if brute - baked <= tol {
+                        close += 1;
+                    }
+                }
+            }
+        }
+        let share = close as f64 / total as f64;
+        println!("{name}: {:.3}% within a march step, largest gap {worst:.4}", 100.0 * share);
+        assert!(share >= 0.995, "{name}: only {:.2}% agree", 100.0 * share);
+    }
+}
+
+/// A flat map: every ray hits at the plane's depth; a single step: analytic depths.
+#[test]
+fn flat_map_and_step_have_analytic_depths() {
+    let n = 32;
+    let hf = Heightfield::from_samples(n, n, vec![0.25; (n * n) as usize]);
+    let s = ReliefSettings { theta: 4, phi: 4, size: Some(n), depth_scale: 0.25, format: ReliefFormat::R16Float };
+    let baked = relief::bake(&hf, &s, &|_, _| {}).unwrap();
+    for d in baked.depth.to_f32(0) {
+        assert_eq!(d, 0.75);
+    }
+    // Columns 16..32 stand at height 1, the rest at 0 (depth 1). A ray at φ = 0 (+u) from
+    // texel i < 16 reaches the wall after 16 − (i + ½) texels horizontally.
+    let samples: Vec<f32> = (0..n * n).map(|k| if k % n >= 16 { 1.0 } else { 0.0 }).collect();
+    let hf = Heightfield::from_samples(n, n, samples);
+    let s = ReliefSettings { theta: 3, phi: 4, size: Some(n), depth_scale: 0.25, format: ReliefFormat::R16Float };
+    let baked = relief::bake(&hf, &s, &|_, _| {}).unwrap();
+    let values = baked.depth.to_f32(0);
+    let dirs = s.directions();
+    let thickness = 8.0;
+    for row in 0..3 {
+        let layer = row * 4; // φ = 0
+        let (theta, _) = dirs.angles(layer);
+        for i in 0..16u32 {
+            let horizontal = 16.0 - (i as f32 + 0.5);
+            let expected = (horizontal / theta.tan() / thickness).min(1.0);
+            let got = values[(layer * n * n + 5 * n + i) as usize];
+            assert!(got <= expected + 1e-6 && expected - got < 2e-3, "θ {theta} i {i}: {got} vs {expected}");
+        }
+    }
+}
+
+/// The stored maps are the 2×2 MIN chain of the full-resolution maps, rounded down.
+#[test]
+fn downscaled_maps_are_the_min_of_the_full_maps() {
+    let n = 64;
+    let hf = Heightfield::from_samples(n, n, synth::bricks(n));
+    let full = ReliefSettings { theta: 4, phi: 4, size: Some(n), depth_scale: 0.1, format: ReliefFormat::R16Float };
+    let small = ReliefSettings { size: Some(16), format: ReliefFormat::R8Unorm, ..full.clone() };
+    let a = relief::bake(&hf, &full, &|_, _| {}).unwrap().depth.to_f32(0);
+    let b = relief::bake(&hf, &small, &|_, _| {}).unwrap().depth.to_f32(0);
+    let per = (n * n) as usize;
+    for layer in 0..16 {
+        let full_layer = &a[layer * per..(layer + 1) * per];
+        // Eq. (2) twice, by hand.
+        let half = min_downscale(full_layer, n, n, 2);
+        let quarter = min_downscale(&half, n / 2, n / 2, 2);
+        let got = &b[layer * 256..(layer + 1) * 256];
+        for (k, (&g, &e)) in got.iter().zip(&quarter).enumerate() {
+            // `e` is itself rounded down to f16 (steps of 2^-11 near 1).
+            assert!(g <= e + 1e-3 && e - g < 1.0 / 255.0 + 1e-3, "layer {layer} texel {k}: {g} vs {e}");
+        }
+    }
+}
+
+#[test]
+fn max_mip_texture_holds_the_pyramid() {
+    let n = 16;
+    let hf = Heightfield::from_samples(n, n, synth::spikes_and_walls(n));
+    let baked = relief::bake(&hf, &ReliefSettings { size: Some(4), ..Default::default() }, &|_, _| {}).unwrap();
+    let heights = relief::stored_heights(&hf).unwrap();
+    let mm = MaxMip::new(n, n, heights).unwrap();
+    assert_eq!(baked.max_mip.desc.levels, 5);
+    for l in 0..5 {
+        let got: Vec<f32> = baked.max_mip.channel_f32(l, 0);
+        assert_eq!(got, mm.level(l), "level {l}");
+    }
+    // Level 1 by hand: the largest of each 2×2.
+    let l1 = baked.max_mip.channel_f32(1, 0);
+    let h0 = baked.max_mip.channel_f32(0, 0);
+    let by_hand = h0[0].max(h0[1]).max(h0[16]).max(h0[17]);
+    assert_eq!(l1[0], by_hand);
+}
+
+#[test]
+fn bad_settings_are_refused() {
+    let hf = Heightfield::from_samples(64, 64, vec![0.5; 64 * 64]);
+    let base = ReliefSettings::default();
+    for (s, needle) in [
+        (ReliefSettings { theta: 0, ..base.clone() }, "theta"),
+        (ReliefSettings { phi: 100_000, ..base.clone() }, "phi"),
+        (ReliefSettings { theta: 128, phi: 128, ..base.clone() }, "directions"),
+        (ReliefSettings { size: Some(24), ..base.clone() }, "power of two"),
+        (ReliefSettings { size: Some(128), ..base.clone() }, "at most the map width"),
+        (ReliefSettings { depth_scale: f32::NAN, ..base.clone() }, "depth_scale"),
+    ] {
+        let e = relief::bake(&hf, &s, &|_, _| {}).unwrap_err();
+        assert!(e.contains(needle), "{e}");
+    }
+    let odd = Heightfield::from_samples(48, 64, vec![0.5; 48 * 64]);
+    assert!(relief::bake(&odd, &base, &|_, _| {}).unwrap_err().contains("power-of-two"));
+    let high = Heightfield::from_samples(64, 64, vec![1.5; 64 * 64]);
+    assert!(relief::bake(&high, &base, &|_, _| {}).unwrap_err().contains("[0, 1]"));
+}
+
+#[test]
+fn the_direction_table_matches_the_layers() {
+    let dirs = ReliefDirections { theta: 32, phi: 16 };
+    let (t0, p0) = dirs.angles(0);
+    assert!((t0.to_degrees() - 90.0 / 64.0).abs() < 1e-4 && p0 == 0.0);
+    let (t, p) = dirs.angles(16 * 31 + 4);
+    assert!((t.to_degrees() - 88.59375).abs() < 1e-3 && (p.to_degrees() - 90.0).abs() < 1e-4);
+}
