@@ -51,8 +51,10 @@ impl ReliefDirections {
         let horizontal = (dir[0] * dir[0] + dir[1] * dir[1]).sqrt();
         let theta = horizontal.atan2(dir[2].max(0.0));
         let row = ((theta / FRAC_PI_2 * self.theta as f32).ceil() as i64 - 1).clamp(0, self.theta as i64 - 1) as u32;
-        let phi = dir[1].atan2(dir[0]).rem_euclid(TAU);
-        let col = ((phi / TAU * self.phi as f32).round() as u32) % self.phi;
+        // Written the way the WGSL mirror computes it (no rem_euclid, round half up).
+        let phi = dir[1].atan2(dir[0]);
+        let phi = if phi < 0.0 { phi + TAU } else { phi };
+        let col = ((phi / TAU * self.phi as f32 + 0.5).floor() as u32) % self.phi;
         row * self.phi + col
     }
 }

@@ -69,11 +69,12 @@ impl Headless {
         bytes
     }
 
-    /// Copies a 2D texture with 4 bytes per texel (`COPY_SRC`) into memory, row-major, rows
-    /// packed (the 256-byte row alignment of the copy is removed).
+    /// Copies level 0 of a 2D texture (`COPY_SRC`, an uncompressed colour format) into memory,
+    /// row-major, rows packed (the 256-byte row alignment of the copy is removed).
     pub fn read_texture(&self, texture: &wgpu::Texture) -> Vec<u8> {
         let (w, h) = (texture.width(), texture.height());
-        let row = w * 4;
+        let texel = texture.format().block_copy_size(None).unwrap_or(4);
+        let row = w * texel;
         let padded = row.div_ceil(256) * 256;
         let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("hikage texture readback"),

@@ -8,7 +8,8 @@
 //!   [`RuntimeError`], never a wgpu validation panic.
 //!
 //! [`headless`] opens a device without a window (Mesa lavapipe on CI) for tests and examples.
-//! [`horizon`] holds the WGSL of curvature-corrected horizon shadows and its CPU reference.
+//! [`horizon`] holds the WGSL of curvature-corrected horizon shadows and its CPU reference;
+//! [`relief`] the relief-mapping tracers (seed 003), shadows and ambient occlusion, with theirs.
 //!
 //! The runtime never links the baker: a game needs only this crate and `hikage-bundle`.
 
@@ -17,6 +18,8 @@ pub mod headless;
 pub mod horizon;
 pub mod horizon_sphere;
 mod load;
+pub mod relief;
+pub mod relief_plane;
 mod upload;
 
 pub use error::RuntimeError;

@@ -34,6 +34,16 @@ pub struct CpuBundle {
     pub assets: Vec<CpuAsset>,
 }
 
+impl CpuAsset {
+    /// The texture, when the payload is one.
+    pub fn texture(&self) -> Option<&TextureData> {
+        match &self.payload {
+            CpuPayload::Texture(t) => Some(t),
+            CpuPayload::Mesh(_) => None,
+        }
+    }
+}
+
 impl CpuBundle {
     /// Opens the bundle in `dir` and decodes every asset, checking sizes, hashes and KTX2
     /// headers against the manifest.

@@ -1,30 +1,9 @@
-//! The benchmark table of the README. Run from the repository root:
-//!
-//! ```text
-//! cargo run --release -p hikage-bake --example bench
-//! ```
-//!
-//! Every figure is the best of several runs (machines here are noisy), with its baseline
-//! measured in the same run. Set `RAYON_NUM_THREADS` to change the thread count.
+//! Horizon and distance maps: throughput, brute force, GRASS r.horizon, peak memory.
 
-use std::time::Instant;
-
+use crate::{best_of, peak_rss_mib};
 use hikage_bake::heightfield::Heightfield;
 use hikage_bake::horizon::{self, Edge, HorizonFormat, HorizonSettings, OPEN_SKY_SLOPE, reference};
 use hikage_bake::synth;
-
-fn best_of<T>(runs: usize, mut f: impl FnMut() -> T) -> (f64, T) {
-    let mut best = f64::INFINITY;
-    let mut out = None;
-    for _ in 0..runs {
-        drop(out.take()); // never hold two results at once (peak memory is measured)
-        let t = Instant::now();
-        let r = f();
-        best = best.min(t.elapsed().as_secs_f64());
-        out = Some(r);
-    }
-    (best, out.expect("at least one run"))
-}
 
 fn terrain(n: u32) -> Heightfield {
     let mut hf = Heightfield::from_samples(n, n, synth::terrain(n));
@@ -33,19 +12,8 @@ fn terrain(n: u32) -> Heightfield {
     hf
 }
 
-fn peak_rss_mib() -> Option<f64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib / 1024.0)
-}
-
-fn main() {
-    let threads = rayon::current_num_threads();
-    println!("hikage benchmarks — {threads} threads, best of N runs\n");
-    println!("| figure | input | time | throughput | baseline | ratio |");
-    println!("|---|---|---|---|---|---|");
-
+/// The horizon rows (issue 3).
+pub fn run() {
     // Brute force vs the baker at 256², same input and settings, with the accuracy it reaches.
     let hf = terrain(256);
     let s =

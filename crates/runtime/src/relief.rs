@@ -1,0 +1,435 @@
+//! Relief mapping with depth maps (seed 003): the tracers of [`RELIEF_WGSL`] and their CPU
+//! reference, which counts every height-map and depth-map read.
+//!
+//! Four tracers find where a view ray entering the top plane first meets the relief (geometry
+//! and parameterisation: [`hikage_bundle::relief`]):
+//! - [`Tracer::Linear`]: plain relief mapping — equal depth steps, then binary search (the
+//!   baseline).
+//! - [`Tracer::DepthMap`]: the seed's method — the depth map of the sample direction nearest the
+//!   view gives a hit `P'`, projected onto the view ray (`|OP| = |OP'| cos θ`); from there a
+//!   forward search if outside the solid or a backward one if inside, then binary search.
+//! - [`Tracer::MaxMip`]: max-mip traversal (Tevs et al. 2008), exact on the box surface.
+//! - [`Tracer::Combined`]: the depth-map estimate, pulled back by a margin, as the start of a
+//!   max-mip traversal from a low level.
+//!
+//! Shadows use the same maps toward the light ([`lit`]); ambient occlusion is the visibility
+//! over the sampled directions ([`ambient_occlusion`]). Every function here is mirrored line by
+//! line in the WGSL so the GPU can be checked against it.
+
+use hikage_bundle::relief::{MaxMip, ReliefDirections, ReliefRay, first_hit_maxmip};
+use hikage_bundle::{AssetKind, ReliefSettings, Settings, TextureData};
+
+use crate::error::RuntimeError;
+use crate::load::CpuBundle;
+
+/// WGSL of the tracers, shadows and ambient occlusion. Bindings (group 0): 0 the max-mip
+/// texture (`texture_2d<f32>`, level 0 the heights), 1 the depth maps (`texture_2d_array<f32>`),
+/// 2 a uniform `ReliefParams`.
+pub const RELIEF_WGSL: &str = include_str!("shaders/relief.wgsl");
+
+/// A relief asset pair in memory: the max-mip pyramid (its level 0 is the surface) and the depth
+/// maps with their direction table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReliefMaps {
+    /// The heights and their max-mip pyramid.
+    pub max_mip: MaxMip,
+    /// Depth maps, `[layer][row][col]`.
+    pub depth: Vec<f32>,
+    /// Width and height of each depth map.
+    pub depth_size: (u32, u32),
+    /// The direction table.
+    pub dirs: ReliefDirections,
+    /// Relief thickness in texels of the heightfield.
+    pub thickness: f32,
+}
+
+/// Reads a tracer made.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Reads {
+    /// Height-map reads (any max-mip level).
+    pub height: u32,
+    /// Depth-map reads.
+    pub depth: u32,
+}
+
+impl Reads {
+    /// All reads.
+    pub fn total(&self) -> u32 {
+        self.height + self.depth
+    }
+}
+
+/// A tracer and its setting.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Tracer {
+    /// Equal depth steps (`steps` of them down to the bottom), then `binary` halvings.
+    Linear {
+        /// Depth steps from the top to the bottom plane.
+        steps: u32,
+        /// Binary-search halvings.
+        binary: u32,
+    },
+    /// The seed's depth-map start, forward/backward search in steps of `1/steps` depth, then
+    /// `binary` halvings.
+    DepthMap {
+        /// Search step as a share of the full depth.
+        steps: u32,
+        /// Binary-search halvings.
+        binary: u32,
+    },
+    /// Max-mip traversal from `start_level`, refined down to `stop_level` (0: exact).
+    MaxMip {
+        /// Level the traversal starts at.
+        start_level: u32,
+        /// Level it stops refining at.
+        stop_level: u32,
+    },
+    /// Depth-map estimate pulled back by `margin` (a share of its length), then max-mip
+    /// traversal from `start_level`.
+    Combined {
+        /// Share of the estimated length to step back before traversing.
+        margin: f32,
+        /// Level the traversal starts at.
+        start_level: u32,
+    },
+}
+
+impl Tracer {
+    /// Short name for tables.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Tracer::Linear { .. } => "(a) linear + binary",
+            Tracer::DepthMap { .. } => "(b) depth map (seed)",
+            Tracer::MaxMip { .. } => "(c) max-mip",
+            Tracer::Combined { .. } => "(d) depth map + max-mip",
+        }
+    }
+
+    /// Index used by the shader's `tracer` field.
+    pub fn code(&self) -> u32 {
+        match self {
+            Tracer::Linear { .. } => 0,
+            Tracer::DepthMap { .. } => 1,
+            Tracer::MaxMip { .. } => 2,
+            Tracer::Combined { .. } => 3,
+        }
+    }
+}
+
+impl ReliefMaps {
+    /// Reads a relief asset and the max-mip pyramid it names from a loaded bundle.
+    pub fn from_bundle(bundle: &CpuBundle, relief_id: &str) -> Result<ReliefMaps, RuntimeError> {
+        let bad = |id: &str, m: String| RuntimeError::Unsupported { asset: id.to_string(), message: m };
+        let relief = bundle.asset(relief_id).ok_or_else(|| bad(relief_id, "no such asset".into()))?;
+        let (settings, depth) = match (&relief.asset.settings, relief.texture()) {
+            (Settings::Relief(s), Some(t)) if relief.asset.kind == AssetKind::Relief => (s, t),
+            _ => return Err(bad(relief_id, "not a relief asset".into())),
+        };
+        let mm = bundle.asset(&settings.max_mip).and_then(|a| a.texture());
+        let mm = mm.ok_or_else(|| bad(relief_id, format!("its max-mip texture `{}` is missing", settings.max_mip)))?;
+        ReliefMaps::from_textures(settings, depth, mm).map_err(|m| bad(relief_id, m))
+    }
+
+    /// Builds the maps from the two textures and the relief asset's settings.
+    pub fn from_textures(
+        settings: &ReliefSettings,
+        depth: &TextureData,
+        max_mip: &TextureData,
+    ) -> Result<ReliefMaps, String> {
+        let levels = (0..max_mip.desc.levels).map(|l| max_mip.channel_f32(l, 0)).collect();
+        let max_mip = MaxMip::from_levels(max_mip.desc.width, max_mip.desc.height, levels)?;
+        let dirs = settings.table();
+        if depth.desc.layers != dirs.layers() {
+            return Err(format!("{} depth layers for {} directions", depth.desc.layers, dirs.layers()));
+        }
+        Ok(ReliefMaps {
+            thickness: settings.depth_scale * max_mip.width() as f32,
+            max_mip,
+            depth: depth.channel_f32(0, 0),
+            depth_size: (depth.desc.width, depth.desc.height),
+            dirs,
+        })
+    }
+
+    /// Depth-map texel of `layer` under the top-plane point `(u, v)` (texels of the heightfield;
+    /// nearest texel, wrapping).
+    pub fn depth_at(&self, layer: u32, u: f32, v: f32) -> f32 {
+        let (dw, dh) = self.depth_size;
+        let i = (u * dw as f32 / self.max_mip.width() as f32).floor() as i64;
+        let j = (v * dh as f32 / self.max_mip.height() as f32).floor() as i64;
+        let (i, j) = (i.rem_euclid(dw as i64) as usize, j.rem_euclid(dh as i64) as usize);
+        self.depth[layer as usize * (dw * dh) as usize + j * dw as usize + i]
+    }
+
+    /// A ray entering the top plane at `origin` along the unit `dir` (`z` down).
+    pub fn ray(&self, origin: [f32; 2], dir: [f32; 3]) -> ReliefRay {
+        ReliefRay { origin, dir, thickness: self.thickness }
+    }
+
+    /// The seed's estimate of the hit length: the nearest direction's stored hit, projected onto
+    /// the view ray. One depth-map read.
+    pub fn estimate(&self, ray: &ReliefRay, reads: &mut Reads) -> f32 {
+        let layer = self.dirs.nearest(ray.dir);
+        let k = self.dirs.direction(layer);
+        reads.depth += 1;
+        let d = self.depth_at(layer, ray.origin[0], ray.origin[1]);
+        let along_sample = d * self.thickness / k[2];
+        let cos = k[0] * ray.dir[0] + k[1] * ray.dir[1] + k[2] * ray.dir[2];
+        (along_sample * cos).clamp(0.0, ray.s_bottom())
+    }
+
+    fn inside(&self, ray: &ReliefRay, s: f32, reads: &mut Reads) -> bool {
+        reads.height += 1;
+        ray.inside(&self.max_mip, s)
+    }
+
+    /// Halves `[lo, hi]` (`lo` outside, `hi` inside) `n` times; returns the midpoint.
+    fn bisect(&self, ray: &ReliefRay, mut lo: f32, mut hi: f32, n: u32, reads: &mut Reads) -> f32 {
+        for _ in 0..n {
+            let mid = 0.5 * (lo + hi);
+            if self.inside(ray, mid, reads) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        0.5 * (lo + hi)
+    }
+
+    /// The hit length the tracer finds for `ray`, counting reads.
+    pub fn trace(&self, tracer: Tracer, ray: &ReliefRay, reads: &mut Reads) -> f32 {
+        let bottom = ray.s_bottom();
+        match tracer {
+            Tracer::Linear { steps, binary } => {
+                let ds = bottom / steps.max(1) as f32;
+                let mut lo = 0.0;
+                let mut hi = bottom;
+                for k in 1..steps {
+                    let s = k as f32 * ds;
+                    if self.inside(ray, s, reads) {
+                        hi = s;
+                        break;
+                    }
+                    lo = s;
+                }
+                self.bisect(ray, lo, hi, binary, reads)
+            }
+            Tracer::DepthMap { steps, binary } => {
+                let ds = bottom / steps.max(1) as f32;
+                let s0 = self.estimate(ray, reads);
+                let (mut lo, mut hi);
+                if self.inside(ray, s0, reads) {
+                    // Backward: step toward the entry point until outside.
+                    hi = s0;
+                    lo = 0.0;
+                    while hi > 0.0 {
+                        let s = (hi - ds).max(0.0);
+                        if s <= 0.0 || !self.inside(ray, s, reads) {
+                            lo = s;
+                            break;
+                        }
+                        hi = s;
+                    }
+                } else {
+                    // Forward: step on until inside (the bottom plane always is).
+                    lo = s0;
+                    hi = bottom;
+                    loop {
+                        let s = lo + ds;
+                        if s >= bottom {
+                            break;
+                        }
+                        if self.inside(ray, s, reads) {
+                            hi = s;
+                            break;
+                        }
+                        lo = s;
+                    }
+                }
+                self.bisect(ray, lo, hi, binary, reads)
+            }
+            Tracer::MaxMip { start_level, stop_level } => {
+                first_hit_maxmip(&self.max_mip, ray, (0.0, f32::INFINITY), (start_level, stop_level), &mut reads.height)
+            }
+            Tracer::Combined { margin, start_level } => {
+                let s0 = self.estimate(ray, reads) * (1.0 - margin);
+                first_hit_maxmip(&self.max_mip, ray, (s0, f32::INFINITY), (start_level, 0), &mut reads.height)
+            }
+        }
+    }
+
+    /// Whether the surface point at `uvz` (texels, normalised depth) sees the light along `light`
+    /// (unit, `z` up toward the light): the same search as [`Tracer::Combined`], toward the
+    /// light. The light's ray enters the top plane above the point; when the nearest direction's
+    /// stored hit there is not shallower than the point (less `bias`, a depth) it is lit after
+    /// one read; otherwise the ray is traversed from that stored depth (pulled back 10%) to the
+    /// point, and the point is lit when nothing is hit on the way.
+    pub fn lit(&self, uvz: [f32; 3], light: [f32; 3], bias: f32, reads: &mut Reads) -> bool {
+        if light[2] <= 0.0 {
+            return false;
+        }
+        let (entry, dir) = self.entry_toward(uvz, light);
+        let layer = self.dirs.nearest(dir);
+        reads.depth += 1;
+        let stored = self.depth_at(layer, entry[0], entry[1]);
+        if stored >= uvz[2] - bias {
+            return true;
+        }
+        let ray = self.ray(entry, dir);
+        let dz = ray.dz();
+        let s_point = (uvz[2] - bias).max(0.0) / dz;
+        let s_start = stored / dz * 0.9;
+        let s = first_hit_maxmip(&self.max_mip, &ray, (s_start, s_point), (2, 0), &mut reads.height);
+        s >= s_point
+    }
+
+    /// Where the ray from the top plane along `-toward` (unit, `z` up) reaching `uvz` enters,
+    /// and its travel direction (`z` down).
+    fn entry_toward(&self, uvz: [f32; 3], toward: [f32; 3]) -> ([f32; 2], [f32; 3]) {
+        let back = uvz[2] * self.thickness / toward[2];
+        ([uvz[0] + back * toward[0], uvz[1] + back * toward[1]], [-toward[0], -toward[1], toward[2]])
+    }
+
+    /// Cosine-weighted share of the hemisphere above `uvz` that is open, over every `stride`-th
+    /// sample direction: a direction is open when its stored hit at the entry point is not
+    /// shallower than the point (less `bias`).
+    pub fn ambient_occlusion(&self, uvz: [f32; 3], stride: u32, bias: f32, reads: &mut Reads) -> f32 {
+        let (mut open, mut total) = (0.0, 0.0);
+        let mut layer = 0;
+        while layer < self.dirs.layers() {
+            let k = self.dirs.direction(layer);
+            let up = [-k[0], -k[1], k[2]];
+            // cos θ for the cosine lobe, sin θ for the band's solid angle.
+            let w = k[2] * (k[0] * k[0] + k[1] * k[1]).sqrt();
+            let (entry, _) = self.entry_toward(uvz, up);
+            reads.depth += 1;
+            if self.depth_at(layer, entry[0], entry[1]) >= uvz[2] - bias {
+                open += w;
+            }
+            total += w;
+            layer += stride.max(1);
+        }
+        if total > 0.0 { open / total } else { 1.0 }
+    }
+}
+
+/// Ground truth for evaluating tracers: a march in steps of 1/16 texel (3D length), then 12
+/// halvings. Independent of the max-mip code.
+pub fn fine_march(mm: &MaxMip, ray: &ReliefRay) -> f32 {
+    let step = 1.0 / 16.0;
+    let bottom = ray.s_bottom();
+    let mut lo = 0.0;
+    let mut s = step;
+    while s < bottom {
+        if ray.inside(mm, s) {
+            let mut hi = s;
+            for _ in 0..12 {
+                let mid = 0.5 * (lo + hi);
+                if ray.inside(mm, mid) {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            return hi;
+        }
+        lo = s;
+        s += step;
+    }
+    bottom
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A wall (columns 16..20 at height 1) on a floor at height 0, relief 8 texels deep, maps at
+    /// full resolution with depths computed analytically: the floor behind the wall, seen from
+    /// the light, is in shadow for exactly the wall's shadow length (8 texels × tan θ_light).
+    fn wall() -> ReliefMaps {
+        let n = 32u32;
+        let heights: Vec<f32> = (0..n * n).map(|k| if (16..20).contains(&(k % n)) { 1.0 } else { 0.0 }).collect();
+        let max_mip = MaxMip::new(n, n, heights).unwrap();
+        let dirs = ReliefDirections { theta: 4, phi: 4 };
+        let thickness = 8.0;
+        let mut depth = Vec::new();
+        for layer in 0..dirs.layers() {
+            let dir = dirs.direction(layer);
+            for j in 0..n {
+                for i in 0..n {
+                    let ray = ReliefRay { origin: [i as f32 + 0.5, j as f32 + 0.5], dir, thickness };
+                    depth.push(fine_march(&max_mip, &ray) * ray.dz());
+                }
+            }
+        }
+        ReliefMaps { max_mip, depth, depth_size: (n, n), dirs, thickness }
+    }
+
+    #[test]
+    fn wall_shadow_has_its_analytic_length() {
+        let maps = wall();
+        // Light from −u (it travels toward +u): θ of row 1 = 33.75°, φ = 180°: toward the
+        // light is (−sin θ, 0, cos θ). The floor (depth 1) east of the wall (u ≥ 20) is shadowed
+        // up to u = 20 + 8·tan θ.
+        let (theta, _) = maps.dirs.angles(maps.dirs.phi + 2); // row 1, φ = 180°
+        let light = [-theta.sin(), 0.0, theta.cos()];
+        let end = 20.0 + 8.0 * theta.tan();
+        let mut reads = Reads::default();
+        for k in 0..40 {
+            let u = 20.05 + k as f32 * 0.25;
+            let lit = maps.lit([u, 5.5, 1.0], light, 0.01, &mut reads);
+            if (u - end).abs() > 0.6 {
+                assert_eq!(lit, u > end, "u {u}, shadow ends at {end}");
+            }
+        }
+        // West of the wall, facing the light, everything is lit; the wall top too.
+        assert!(maps.lit([10.5, 5.5, 1.0], light, 0.01, &mut reads));
+        assert!(maps.lit([17.5, 5.5, 0.0], light, 0.01, &mut reads));
+    }
+
+    #[test]
+    fn occlusion_is_lower_beside_the_wall_than_on_open_floor() {
+        let maps = wall();
+        let mut reads = Reads::default();
+        let open_floor = maps.ambient_occlusion([4.5, 5.5, 1.0], 1, 0.01, &mut reads);
+        let beside = maps.ambient_occlusion([20.5, 5.5, 1.0], 1, 0.01, &mut reads);
+        let top = maps.ambient_occlusion([17.5, 5.5, 0.0], 1, 0.01, &mut reads);
+        assert_eq!(top, 1.0);
+        assert!(beside < open_floor && open_floor < 1.0, "beside {beside} open {open_floor}");
+        // Beside the wall one azimuth of four looks into it at every zenith row (and rows
+        // that wrap around the 32-texel tile may meet it again): a little under ¾ open.
+        assert!((0.65..=0.75).contains(&beside), "{beside}");
+        assert_eq!(reads.depth, 3 * maps.dirs.layers());
+    }
+
+    /// Every tracer on the wall map against the fine march, at a generous setting: any ray for
+    /// the searches that need no depth map, and for the two that start from it, rays from texel
+    /// centres along table directions (where the stored hit is exact at full resolution).
+    #[test]
+    fn tracers_find_the_wall() {
+        let maps = wall();
+        let cases = [
+            (Tracer::Linear { steps: 256, binary: 8 }, false),
+            (Tracer::MaxMip { start_level: 5, stop_level: 0 }, false),
+            (Tracer::DepthMap { steps: 128, binary: 8 }, true),
+            (Tracer::Combined { margin: 0.0, start_level: 0 }, true),
+        ];
+        for (tracer, on_table) in cases {
+            for k in 0..64u32 {
+                let ray = if on_table {
+                    let origin = [(3 + k % 29) as f32 + 0.5, (k % 7) as f32 + 0.5];
+                    maps.ray(origin, maps.dirs.direction(k % maps.dirs.layers()))
+                } else {
+                    let (phi, theta) = (k as f32 * 0.1, 0.2 + 0.02 * k as f32);
+                    let dir = [theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()];
+                    maps.ray([3.3 + k as f32 * 0.37, 7.9], dir)
+                };
+                let truth = fine_march(&maps.max_mip, &ray);
+                let mut reads = Reads::default();
+                let s = maps.trace(tracer, &ray, &mut reads);
+                assert!((s - truth).abs() < 0.5, "{tracer:?} ray {k}: {s} vs {truth}");
+                assert!(reads.total() > 0);
+            }
+        }
+    }
+}

@@ -1,0 +1,53 @@
+//! The benchmark tables of the README. Run from the repository root:
+//!
+//! ```text
+//! cargo run --release --example bench              # every table
+//! cargo run --release --example bench -- relief    # one: horizon, relief
+//! ```
+//!
+//! Every figure is the best of several runs (machines here are noisy), with its baseline
+//! measured in the same run. Set `RAYON_NUM_THREADS` to change the thread count.
+
+mod horizon;
+mod relief;
+
+use std::time::Instant;
+
+/// Runs `f` `runs` times; the shortest time in seconds and the last result.
+pub fn best_of<T>(runs: usize, mut f: impl FnMut() -> T) -> (f64, T) {
+    let mut best = f64::INFINITY;
+    let mut out = None;
+    for _ in 0..runs {
+        drop(out.take()); // never hold two results at once (peak memory is measured)
+        let t = Instant::now();
+        let r = f();
+        best = best.min(t.elapsed().as_secs_f64());
+        out = Some(r);
+    }
+    (best, out.expect("at least one run"))
+}
+
+/// Peak resident memory of this process so far, MiB (Linux).
+pub fn peak_rss_mib() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib / 1024.0)
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let wanted = |name: &str| args.is_empty() || args.iter().any(|a| a == name);
+    let threads = rayon::current_num_threads();
+    println!("hikage benchmarks — {threads} threads, best of N runs\n");
+    // Horizon first: its peak-memory row reads the process's high-water mark.
+    if wanted("horizon") {
+        println!("| figure | input | time | throughput | baseline | ratio |");
+        println!("|---|---|---|---|---|---|");
+        horizon::run();
+        println!();
+    }
+    if wanted("relief") {
+        relief::run();
+    }
+}
