@@ -2,12 +2,13 @@
 //!
 //! ```text
 //! cargo run --release --example bench              # every table
-//! cargo run --release --example bench -- relief    # one: horizon, relief
+//! cargo run --release --example bench -- relief    # one: horizon, relief, fit
 //! ```
 //!
 //! Every figure is the best of several runs (machines here are noisy), with its baseline
 //! measured in the same run. Set `RAYON_NUM_THREADS` to change the thread count.
 
+mod fit;
 mod horizon;
 mod relief;
 
@@ -49,5 +50,8 @@ fn main() {
     }
     if wanted("relief") {
         relief::run();
+    }
+    if wanted("fit") {
+        fit::run();
     }
 }

@@ -9,7 +9,8 @@
 //!
 //! [`headless`] opens a device without a window (Mesa lavapipe on CI) for tests and examples.
 //! [`horizon`] holds the WGSL of curvature-corrected horizon shadows and its CPU reference;
-//! [`relief`] the relief-mapping tracers (seed 003), shadows and ambient occlusion, with theirs.
+//! [`relief`] the relief-mapping tracers (seed 003), shadows and ambient occlusion, with theirs;
+//! [`shadow_fit`] the per-frame light-projection fit of seed 001 (CPU, glam).
 //!
 //! The runtime never links the baker: a game needs only this crate and `hikage-bundle`.
 
@@ -20,6 +21,8 @@ pub mod horizon_sphere;
 mod load;
 pub mod relief;
 pub mod relief_plane;
+pub mod shadow_fit;
+pub mod shadow_scene;
 mod upload;
 
 pub use error::RuntimeError;

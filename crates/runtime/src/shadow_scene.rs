@@ -1,0 +1,372 @@
+//! The reference scene of seed 001: a few hundred boxes over a large ground, drawn with a shadow
+//! map from one light whose projection is fixed, fitted ([`crate::shadow_fit`]) or fitted in
+//! post-perspective space. [`render_frame`] draws one frame on the GPU and reads back, per
+//! pixel, the shadow-map texel coordinates, the texel density σ, the lit flag and the world
+//! position; [`sigma_cpu`] recomputes σ for a pixel from the camera and light matrices alone, so
+//! the GPU figure can be checked. Used by the `shadow_fit` example and the GPU tests.
+
+use glam::{Mat4, Vec3, Vec4};
+
+use crate::headless::Headless;
+use crate::shadow_fit::{MeshRef, Sphere};
+
+/// WGSL of the two passes.
+pub const SCENE_WGSL: &str = include_str!("shaders/shadow_scene.wgsl");
+
+/// Face normals by the index stored per vertex: ±x, ±y, ±z.
+pub const FACE_NORMALS: [Vec3; 6] = [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z];
+
+/// Boxes over a ground quad, as one triangle list in world space.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// World positions.
+    pub positions: Vec<Vec3>,
+    /// Face index of each vertex (into [`FACE_NORMALS`]).
+    pub faces: Vec<u32>,
+    /// Triangle list.
+    pub indices: Vec<u32>,
+    /// Bounds of everything.
+    pub bounds: Sphere,
+}
+
+impl Scene {
+    /// `boxes` boxes (2–10 units wide, 2–24 tall) scattered over a ground `2·half` wide, from a
+    /// fixed seed.
+    pub fn boxes(boxes: u32, half: f32, seed: u64) -> Scene {
+        let mut state = seed.wrapping_mul(0x9e3779b97f4a7c15) | 1;
+        let mut next = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut s = Scene {
+            positions: Vec::new(),
+            faces: Vec::new(),
+            indices: Vec::new(),
+            bounds: Sphere { centre: Vec3::ZERO, radius: 0.0 },
+        };
+        s.add_quad(Vec3::new(-half, 0.0, -half), Vec3::new(0.0, 0.0, 2.0 * half), Vec3::new(2.0 * half, 0.0, 0.0), 2);
+        let mut top: f32 = 0.0;
+        for _ in 0..boxes {
+            let (w, d, h) = (2.0 + 8.0 * next(), 2.0 + 8.0 * next(), 2.0 + 22.0 * next());
+            let (x, z) = ((next() * 2.0 - 1.0) * (half - 10.0), (next() * 2.0 - 1.0) * (half - 10.0));
+            s.add_box(Vec3::new(x - w / 2.0, 0.0, z - d / 2.0), Vec3::new(w, h, d));
+            top = top.max(h);
+        }
+        let corner = Vec3::new(half, top, half);
+        s.bounds = Sphere {
+            centre: Vec3::new(0.0, top / 2.0, 0.0),
+            radius: (corner - Vec3::new(0.0, top / 2.0, 0.0)).length(),
+        };
+        s
+    }
+
+    /// A parallelogram `o + a·s + b·t` facing `face`, wound counter-clockwise seen from it.
+    fn add_quad(&mut self, o: Vec3, a: Vec3, b: Vec3, face: u32) {
+        let base = self.positions.len() as u32;
+        self.positions.extend([o, o + a, o + a + b, o + b]);
+        self.faces.extend([face; 4]);
+        self.indices.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+    }
+
+    fn add_box(&mut self, lo: Vec3, size: Vec3) {
+        let (x, y, z) = (Vec3::X * size.x, Vec3::Y * size.y, Vec3::Z * size.z);
+        self.add_quad(lo + x, y, z, 0);
+        self.add_quad(lo, z, y, 1);
+        self.add_quad(lo + y, z, x, 2);
+        self.add_quad(lo, x, z, 3);
+        self.add_quad(lo + z, x, y, 4);
+        self.add_quad(lo, y, x, 5);
+    }
+
+    /// The scene as one mesh for the fit.
+    pub fn mesh(&self) -> MeshRef<'_> {
+        MeshRef { world: Mat4::IDENTITY, positions: &self.positions, indices: &self.indices }
+    }
+}
+
+/// Per-frame readback.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameData {
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Per pixel: shadow-map texel coordinates `(s·R, t·R)`, σ, lit (1), shadowed (0), outside
+    /// the shadow map (−1).
+    pub shadow: Vec<[f32; 4]>,
+    /// Per pixel: world position and face index (−1: background).
+    pub world: Vec<[f32; 4]>,
+    /// The shadow map (light NDC depth), `R × R`.
+    pub map: Vec<f32>,
+}
+
+/// The matrices and sizes of one frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameSetup {
+    /// World → camera clip.
+    pub camera: Mat4,
+    /// World → light clip.
+    pub light: Mat4,
+    /// Shadow-map texels per side.
+    pub resolution: u32,
+    /// Image width and height.
+    pub size: (u32, u32),
+}
+
+/// Constant depth bias of the shadow test, in light NDC depth; the shader adds 1.5× the
+/// receiver plane's depth change per shadow-map texel.
+pub const DEPTH_BIAS: f32 = 1e-5;
+
+/// Draws one frame: the shadow map from `light`, then the scene from `camera`.
+pub fn render_frame(gpu: &Headless, scene: &Scene, setup: &FrameSetup) -> FrameData {
+    let FrameSetup { camera, light, resolution, size: (width, height) } = *setup;
+    let device = &gpu.device;
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("shadow scene"),
+        source: wgpu::ShaderSource::Wgsl(SCENE_WGSL.into()),
+    });
+    let vertices: Vec<u8> = scene
+        .positions
+        .iter()
+        .zip(&scene.faces)
+        .flat_map(|(p, &f)| [p.x, p.y, p.z, f as f32])
+        .flat_map(f32::to_le_bytes)
+        .collect();
+    let indices: Vec<u8> = scene.indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+    let vbuf = gpu.buffer(vertices.len() as u64, wgpu::BufferUsages::VERTEX, Some(&vertices));
+    let ibuf = gpu.buffer(indices.len() as u64, wgpu::BufferUsages::INDEX, Some(&indices));
+    let mut uniform: Vec<f32> = Vec::new();
+    uniform.extend(camera.to_cols_array());
+    uniform.extend(light.to_cols_array());
+    uniform.extend([resolution as f32, DEPTH_BIAS, 0.0, 0.0]);
+    let ubytes: Vec<u8> = uniform.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let ubuf = gpu.buffer(ubytes.len() as u64, wgpu::BufferUsages::UNIFORM, Some(&ubytes));
+    let layout = wgpu::VertexBufferLayout {
+        array_stride: 16,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32],
+    };
+    let texture = |w: u32, h: u32, format, usage| {
+        device.create_texture(&wgpu::TextureDescriptor {
+            label: None,
+            size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage,
+            view_formats: &[],
+        })
+    };
+    let target = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
+    let map =
+        texture(resolution, resolution, wgpu::TextureFormat::R32Float, target | wgpu::TextureUsages::TEXTURE_BINDING);
+    let map_depth =
+        texture(resolution, resolution, wgpu::TextureFormat::Depth32Float, wgpu::TextureUsages::RENDER_ATTACHMENT);
+    let shadow = texture(width, height, wgpu::TextureFormat::Rgba32Float, target);
+    let world = texture(width, height, wgpu::TextureFormat::Rgba32Float, target);
+    let cam_depth = texture(width, height, wgpu::TextureFormat::Depth32Float, wgpu::TextureUsages::RENDER_ATTACHMENT);
+    let depth_state = wgpu::DepthStencilState {
+        format: wgpu::TextureFormat::Depth32Float,
+        depth_write_enabled: Some(true),
+        depth_compare: Some(wgpu::CompareFunction::Less),
+        stencil: Default::default(),
+        bias: Default::default(),
+    };
+    let pipeline = |vs: &str, fs: &str, formats: &[wgpu::TextureFormat]| {
+        let targets: Vec<_> = formats
+            .iter()
+            .map(|&format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL }))
+            .collect();
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("shadow scene"),
+            layout: None,
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some(vs),
+                compilation_options: Default::default(),
+                buffers: &[Some(layout.clone())],
+            },
+            // Both sides: boxes are closed, and the ground is seen from above only.
+            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+            depth_stencil: Some(depth_state.clone()),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some(fs),
+                compilation_options: Default::default(),
+                targets: &targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    };
+    let light_pipe = pipeline("vs_light", "fs_light", &[wgpu::TextureFormat::R32Float]);
+    let cam_pipe =
+        pipeline("vs_camera", "fs_camera", &[wgpu::TextureFormat::Rgba32Float, wgpu::TextureFormat::Rgba32Float]);
+    let light_bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &light_pipe.get_bind_group_layout(0),
+        entries: &[wgpu::BindGroupEntry { binding: 0, resource: ubuf.as_entire_binding() }],
+    });
+    let map_view = map.create_view(&Default::default());
+    let cam_bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &cam_pipe.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: ubuf.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&map_view) },
+        ],
+    });
+    let color = |view, clear: f64| {
+        Some(wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Clear(wgpu::Color { r: clear, g: clear, b: clear, a: clear }),
+                store: wgpu::StoreOp::Store,
+            },
+        })
+    };
+    let depth = |view| {
+        Some(wgpu::RenderPassDepthStencilAttachment {
+            view,
+            depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+            stencil_ops: None,
+        })
+    };
+    let (md, sv, wv, cd) = (
+        map_depth.create_view(&Default::default()),
+        shadow.create_view(&Default::default()),
+        world.create_view(&Default::default()),
+        cam_depth.create_view(&Default::default()),
+    );
+    let mut enc = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("light"),
+            color_attachments: &[color(&map_view, 1.0)],
+            depth_stencil_attachment: depth(&md),
+            ..Default::default()
+        });
+        pass.set_pipeline(&light_pipe);
+        pass.set_bind_group(0, &light_bind, &[]);
+        pass.set_vertex_buffer(0, vbuf.slice(..));
+        pass.set_index_buffer(ibuf.slice(..), wgpu::IndexFormat::Uint32);
+        pass.draw_indexed(0..scene.indices.len() as u32, 0, 0..1);
+    }
+    {
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("camera"),
+            color_attachments: &[color(&sv, -1.0), color(&wv, -1.0)],
+            depth_stencil_attachment: depth(&cd),
+            ..Default::default()
+        });
+        pass.set_pipeline(&cam_pipe);
+        pass.set_bind_group(0, &cam_bind, &[]);
+        pass.set_vertex_buffer(0, vbuf.slice(..));
+        pass.set_index_buffer(ibuf.slice(..), wgpu::IndexFormat::Uint32);
+        pass.draw_indexed(0..scene.indices.len() as u32, 0, 0..1);
+    }
+    gpu.queue.submit([enc.finish()]);
+    let quads = |bytes: Vec<u8>| -> Vec<[f32; 4]> {
+        bytes
+            .chunks_exact(16)
+            .map(|c| std::array::from_fn(|k| f32::from_le_bytes([c[4 * k], c[4 * k + 1], c[4 * k + 2], c[4 * k + 3]])))
+            .collect()
+    };
+    let map_bytes = gpu.read_texture(&map);
+    FrameData {
+        width,
+        height,
+        shadow: quads(gpu.read_texture(&shadow)),
+        world: quads(gpu.read_texture(&world)),
+        map: map_bytes.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect(),
+    }
+}
+
+/// σ at pixel `(x, y)` from the matrices alone: the rays through this pixel's centre and its
+/// right and lower neighbours' meet the plane of the surface there (point `world`, normal of
+/// `face`); their shadow-map texel coordinates give the Jacobian.
+pub fn sigma_cpu(setup: &FrameSetup, (x, y): (u32, u32), world: Vec3, face: u32) -> f32 {
+    let FrameSetup { camera, light, resolution, size: (width, height) } = *setup;
+    let inv = camera.inverse();
+    let normal = FACE_NORMALS[face as usize % 6];
+    let texel = |px: f32, py: f32| {
+        let ndc_x = px / width as f32 * 2.0 - 1.0;
+        let ndc_y = 1.0 - py / height as f32 * 2.0;
+        let near = inv.project_point3(Vec3::new(ndc_x, ndc_y, 0.0));
+        let far = inv.project_point3(Vec3::new(ndc_x, ndc_y, 1.0));
+        let d = far - near;
+        let t = (world - near).dot(normal) / d.dot(normal);
+        let p = near + d * t;
+        let c: Vec4 = light * p.extend(1.0);
+        let (u, v) = (c.x / c.w, c.y / c.w);
+        Vec3::new((u * 0.5 + 0.5) * resolution as f32, (0.5 - v * 0.5) * resolution as f32, 0.0)
+    };
+    let (cx, cy) = (x as f32 + 0.5, y as f32 + 0.5);
+    let o = texel(cx, cy);
+    let dx = texel(cx + 1.0, cy) - o;
+    let dy = texel(cx, cy + 1.0) - o;
+    (dx.x * dy.y - dx.y * dy.x).abs().sqrt()
+}
+
+/// Figures of one frame: σ over visible pixels inside the shadow map (median, 10th
+/// percentile), the share of shadow-map texels some visible pixel samples, and the lit flags.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameStats {
+    /// Median σ.
+    pub sigma_median: f32,
+    /// 10th percentile of σ.
+    pub sigma_p10: f32,
+    /// Share of the `R²` texels used by visible pixels.
+    pub texels_used: f64,
+    /// Share of visible pixels outside the shadow map (no shadow information).
+    pub outside: f64,
+}
+
+/// The figures of a frame.
+pub fn frame_stats(data: &FrameData, resolution: u32) -> FrameStats {
+    let r = resolution as usize;
+    let mut used = vec![false; r * r];
+    let mut sigmas = Vec::new();
+    let (mut visible, mut outside) = (0usize, 0usize);
+    for (s, w) in data.shadow.iter().zip(&data.world) {
+        if w[3] < 0.0 {
+            continue;
+        }
+        visible += 1;
+        if s[3] < 0.0 {
+            outside += 1;
+            continue;
+        }
+        sigmas.push(s[2]);
+        let (i, j) = (s[0].floor() as usize, s[1].floor() as usize);
+        if i < r && j < r {
+            used[j * r + i] = true;
+        }
+    }
+    sigmas.sort_by(f32::total_cmp);
+    let pick = |q: f64| sigmas.get(((sigmas.len() as f64 - 1.0) * q).round() as usize).copied().unwrap_or(0.0);
+    FrameStats {
+        sigma_median: pick(0.5),
+        sigma_p10: pick(0.1),
+        texels_used: used.iter().filter(|&&u| u).count() as f64 / (r * r) as f64,
+        outside: outside as f64 / visible.max(1) as f64,
+    }
+}
+
+/// Share of pixels inside both shadow maps whose lit/shadowed state differs (between frames:
+/// shimmer; against a reference render of the same frame: error).
+pub fn flips(a: &FrameData, b: &FrameData) -> f64 {
+    let (mut both, mut flipped) = (0usize, 0usize);
+    for (sa, sb) in a.shadow.iter().zip(&b.shadow) {
+        if sa[3] < 0.0 || sb[3] < 0.0 {
+            continue;
+        }
+        both += 1;
+        flipped += (sa[3] != sb[3]) as usize;
+    }
+    flipped as f64 / both.max(1) as f64
+}
