@@ -334,3 +334,60 @@ fn meshes_without_uvs_or_with_degenerate_triangles_are_refused() {
         &["data/range.obj", "line 3", "out of range"],
     );
 }
+
+/// A small valid `.hair` file: two strands of 3 and 2 points, thickness per point.
+fn hair_bytes() -> Vec<u8> {
+    let s = hikage_bake::strands::Strands {
+        segments: vec![2, 1],
+        points: vec![[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 2.0, 0.5], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0]],
+        thickness: Some(vec![0.1; 5]),
+        transparency: None,
+        color: None,
+        default_thickness: 0.1,
+        default_transparency: 0.5,
+        default_color: [0.5; 3],
+    };
+    hikage_bake::strands::cyhair::encode(&s, "crafted")
+}
+
+#[test]
+fn crafted_hair_files_are_refused_with_their_place() {
+    let dir = Dir::new("bad_hair");
+    let good = hair_bytes();
+    let patch = |at: usize, v: &[u8]| {
+        let mut b = good.clone();
+        b[at..at + v.len()].copy_from_slice(v);
+        b
+    };
+    let mut nan = good.clone();
+    let first_point = 128 + 4; // after the segments array (two u16)
+    nan[first_point + 12 + 4..first_point + 12 + 8].copy_from_slice(&f32::NAN.to_le_bytes());
+    let mut negative = good.clone();
+    let thickness = first_point + 5 * 12;
+    negative[thickness + 8..thickness + 12].copy_from_slice(&(-0.5f32).to_le_bytes());
+    let cases: Vec<(&str, Vec<u8>, Vec<&str>)> = vec![
+        ("counts.hair", patch(8, &500u32.to_le_bytes()), vec!["header", "need", "the file has"]),
+        ("overrun.hair", patch(128, &7u16.to_le_bytes()), vec!["segments", "account for 10 points, the header says 5"]),
+        ("nan.hair", nan, vec!["point 1", "finite position"]),
+        ("negative.hair", negative, vec!["point 2", "thickness"]),
+        ("huge.hair", patch(8, &4_000_000_000u32.to_le_bytes()), vec!["header", "limit", "4000000000"]),
+        ("short.hair", good[..60].to_vec(), vec!["128-byte header"]),
+        ("empty.hair", Vec::new(), vec!["expected a .hair signature or OBJ", "at least one"]),
+        ("lines.obj", b"v 0 0 0\nv 1 0 0\nl 1 5\n".to_vec(), vec!["line 3", "out of range"]),
+    ];
+    for (name, bytes, needles) in cases {
+        dir.write(name, &bytes);
+        let args = ["strands", name, "--out", "b"];
+        let out = dir.run_expecting(&args, 1);
+        let err = stderr(&out);
+        let found = needles.iter().filter(|n| err.contains(*n)).count();
+        // The empty file is read as OBJ text with no polyline: either wording names it.
+        let needed = if name == "empty.hair" { 1 } else { needles.len() };
+        assert!(err.contains(name) && found >= needed, "{}", dir.explain(&args, &out, needles[0]));
+        assert!(!dir.path("b/bundle.ron").exists());
+    }
+    dir.write("ok.hair", &good);
+    dir.run(&["strands", "ok.hair", "--out", "b", "--taper", "0.5"]);
+    let out = dir.run_expecting(&["strands", "ok.hair", "--out", "b", "--taper", "2"], 1);
+    assert!(stderr(&out).contains("taper"), "{}", stderr(&out));
+}

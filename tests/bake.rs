@@ -44,6 +44,14 @@ fn default_pipeline_bakes_validates_and_inspects() {
                     assert_eq!(a["dimensions"], serde_json::json!([32, 32, 1, 512]), "{a}");
                 }
                 "max_mip" => assert_eq!(a["levels"], 9, "{a}"),
+                "strands" => {
+                    assert_eq!(a["vertex_count"], 440_000, "{a}");
+                    assert_eq!(a["index_count"], 6 * 21 * 10_000, "{a}");
+                    let sets = a["sets"].as_array().unwrap();
+                    assert_eq!(sets[0]["name"], "shading");
+                    assert!(sets[1]["width"].as_f64().unwrap() > sets[0]["width"].as_f64().unwrap());
+                }
+                "mesh" => assert_eq!(a["vertex_count"], 440_000, "{a}"),
                 other => panic!("unexpected kind {other}"),
             }
         }
@@ -325,4 +333,57 @@ fn relief_one_shot_adds_depth_maps_and_refuses_bad_settings() {
     let manifest = String::from_utf8(dir.read("c/bundle.ron")).unwrap();
     let table: String = manifest.split_whitespace().collect();
     assert!(table.contains("directions:[(22.5,0.0),(22.5,120.0),(22.5,240.0),(67.5,0.0),"), "{manifest}");
+}
+
+/// `export --gltf` of the ribbon mesh: a well-formed GLB whose accessors describe exactly the
+/// streams of the asset (positions with min/max, custom `_WIDTH`/`_OPACITY`), and — when
+/// `HIKAGE_GLTF_VALIDATOR` names a Node script running the Khronos glTF validator on its argument
+/// — a file that validator accepts.
+#[test]
+fn ribbons_export_as_valid_gltf() {
+    let dir = Dir::new("gltf");
+    dir.copy_data();
+    dir.run(&["strands", "data/head.hair", "--out", "b", "--ribbons"]);
+    dir.run(&["export", "b", "head.ribbons", "--gltf", "head.glb"]);
+    let glb = dir.read("head.glb");
+    let u32_at = |at: usize| u32::from_le_bytes(glb[at..at + 4].try_into().unwrap());
+    assert_eq!(&glb[..4], b"glTF");
+    assert_eq!(u32_at(4), 2);
+    assert_eq!(u32_at(8) as usize, glb.len());
+    let json_len = u32_at(12) as usize;
+    assert_eq!(&glb[16..20], b"JSON");
+    let doc: serde_json::Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
+    let bin_at = 20 + json_len;
+    assert_eq!(&glb[bin_at + 4..bin_at + 8], b"BIN\0");
+    let bin = &glb[bin_at + 8..bin_at + 8 + u32_at(bin_at) as usize];
+    let attrs = &doc["meshes"][0]["primitives"][0]["attributes"];
+    for name in ["POSITION", "NORMAL", "COLOR_0", "_WIDTH", "_OPACITY", "_PARAM"] {
+        assert!(attrs[name].is_u64(), "{name} missing: {attrs}");
+    }
+    let bundle = hikage_bundle::Bundle::open(&dir.path("b")).unwrap();
+    let mesh = bundle.read_mesh("head.ribbons").unwrap();
+    for (gltf, stream, width) in [("POSITION", "position", 3), ("_WIDTH", "width", 1), ("_OPACITY", "opacity", 1)] {
+        let acc = &doc["accessors"][attrs[gltf].as_u64().unwrap() as usize];
+        let view = &doc["bufferViews"][acc["bufferView"].as_u64().unwrap() as usize];
+        let (off, len) = (view["byteOffset"].as_u64().unwrap() as usize, view["byteLength"].as_u64().unwrap() as usize);
+        assert_eq!(acc["count"].as_u64().unwrap() as usize * 4 * width, len);
+        let values: Vec<f32> =
+            bin[off..off + len].chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+        assert_eq!(values, mesh.read_f32(stream).unwrap(), "{gltf}");
+        if gltf == "POSITION" {
+            let min: Vec<f32> =
+                (0..3).map(|k| values.iter().skip(k).step_by(3).fold(f32::INFINITY, |m, &v| m.min(v))).collect();
+            let got: Vec<f32> = acc["min"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap() as f32).collect();
+            assert_eq!(got, min);
+        }
+    }
+    if let Ok(script) = std::env::var("HIKAGE_GLTF_VALIDATOR") {
+        let out = std::process::Command::new("node").arg(&script).arg(dir.path("head.glb")).output().unwrap();
+        assert!(out.status.success(), "glTF validator: {}", String::from_utf8_lossy(&out.stdout));
+    } else {
+        eprintln!("not running the Khronos glTF validator: set HIKAGE_GLTF_VALIDATOR to a Node script (README)");
+    }
+    // A texture is not a mesh.
+    let out = dir.run_expecting(&["export", "b", "head.strips", "--gltf", "x.glb", "--out", "y"], 2);
+    assert!(stderr(&out).contains("cannot be used with"), "{}", stderr(&out));
 }

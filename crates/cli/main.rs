@@ -13,7 +13,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use hikage_bake::BakeError;
 use hikage_bake::export::{ExportFormat, export_texture};
 use hikage_bake::horizon::HorizonFormat;
-use hikage_bake::pipeline::{HorizonJob, Job, ReliefJob};
+use hikage_bake::pipeline::{HorizonJob, Job, ReliefJob, StrandsJob};
 use hikage_bake::relief::ReliefFormat;
 use hikage_bake::run::{RunOptions, check_pipeline, run_one_job, run_pipeline};
 use hikage_bundle::EdgeMode;
@@ -154,6 +154,46 @@ enum Command {
         #[arg(long)]
         force: bool,
     },
+    /// Bake hair strip meshes from a `.hair` file or OBJ polylines into BUNDLE (`<id>.strips`,
+    /// and `<id>.ribbons` with --ribbons). Widths are full widths in the input's units.
+    #[command(after_help = EXIT_CODES)]
+    Strands {
+        /// Cem Yuksel `.hair` file or Wavefront OBJ with `l` polylines.
+        input: PathBuf,
+        /// Bundle directory.
+        #[arg(long)]
+        out: PathBuf,
+        /// Asset id prefix (default: the input's file stem).
+        #[arg(long)]
+        id: Option<String>,
+        /// Opacity set width (default: shading width × 1.40/0.16, the paper's ratio).
+        #[arg(long)]
+        opacity_width: Option<f32>,
+        /// Opacity set opacity (default: shading opacity × 0.0165/0.366).
+        #[arg(long)]
+        opacity_alpha: Option<f32>,
+        /// Shading set width (default: the input's default thickness).
+        #[arg(long)]
+        shading_width: Option<f32>,
+        /// Shading set opacity (default: 1 − the input's default transparency).
+        #[arg(long)]
+        shading_alpha: Option<f32>,
+        /// Choose the opacity set from the strand density for an opacity map of N² texels.
+        #[arg(long, value_name = "N", num_args = 0..=1, default_missing_value = "256")]
+        auto: Option<u32>,
+        /// Share of the width lost at the tip (0–1).
+        #[arg(long, default_value_t = 0.0)]
+        taper: f32,
+        /// Also bake a fixed-orientation ribbon mesh (minimum-twist frames).
+        #[arg(long)]
+        ribbons: bool,
+        /// Worker threads (default: one per core).
+        #[arg(long, short = 'j', value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+        jobs: Option<u16>,
+        /// Bake even if unchanged; replace an unreadable bundle.
+        #[arg(long)]
+        force: bool,
+    },
     /// Export a texture asset as OpenEXR (one layer per slice) or raw little-endian f32.
     #[command(after_help = EXIT_CODES)]
     Export {
@@ -161,9 +201,13 @@ enum Command {
         bundle: PathBuf,
         /// Asset id.
         asset: String,
-        /// Output file.
-        #[arg(long)]
-        out: PathBuf,
+        /// Output file (textures: OpenEXR, or raw with --raw).
+        #[arg(long, required_unless_present = "gltf", conflicts_with = "gltf")]
+        out: Option<PathBuf>,
+        /// Write a mesh asset as binary glTF 2.0 to this file (custom streams as `_NAME`
+        /// attributes).
+        #[arg(long, value_name = "OUT")]
+        gltf: Option<PathBuf>,
         /// Write raw little-endian f32 in [slice][row][col] order (channels interleaved last
         /// when no channel is picked).
         #[arg(long)]
@@ -248,7 +292,11 @@ fn run(cli: Cli) -> Result<(), Failure> {
         Command::Bake { pipeline, force, jobs } => bake(&pipeline, force, jobs),
         Command::Validate { path, format } => validate(&path, format),
         Command::Inspect { bundle, format } => inspect(&bundle, format),
-        Command::Export { bundle, asset, out, raw, channel } => export(&bundle, &asset, &out, raw, channel.as_deref()),
+        Command::Export { bundle, asset, out, gltf, raw, channel } => match (out, gltf) {
+            (_, Some(path)) => export_gltf(&bundle, &asset, &path),
+            (Some(out), None) => export(&bundle, &asset, &out, raw, channel.as_deref()),
+            (None, None) => unreachable!("clap requires --out or --gltf"),
+        },
         Command::Horizon {
             input,
             out,
@@ -300,6 +348,33 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 ReliefFormatArg::R16f => ReliefFormat::R16Float,
             };
             one_shot(Job::Relief(job), &out, force, jobs)
+        }
+        Command::Strands {
+            input,
+            out,
+            id,
+            opacity_width,
+            opacity_alpha,
+            shading_width,
+            shading_alpha,
+            auto,
+            taper,
+            ribbons,
+            jobs,
+            force,
+        } => {
+            let id = id.unwrap_or_else(|| stem(&input));
+            let job = StrandsJob {
+                opacity_width,
+                opacity_alpha,
+                shading_width,
+                shading_alpha,
+                auto,
+                taper,
+                ribbons,
+                ..StrandsJob::new(&id, input)
+            };
+            one_shot(Job::Strands(job), &out, force, jobs)
         }
     }
 }
@@ -429,6 +504,14 @@ fn inspect(dir: &Path, format: OutputFormat) -> Result<(), Failure> {
             }
         }
     }
+    Ok(())
+}
+
+fn export_gltf(dir: &Path, asset: &str, out: &Path) -> Result<(), Failure> {
+    let bundle = Bundle::open(dir).with_context(|| format!("opening {}", dir.display()))?;
+    let (vertices, indices) = hikage_bake::gltf::export_gltf(&bundle, asset, out)
+        .with_context(|| format!("exporting `{asset}` from {} as glTF", dir.display()))?;
+    println!("{}: {vertices} vertices, {indices} indices", out.display());
     Ok(())
 }
 

@@ -21,6 +21,7 @@
 pub mod curvature;
 mod error;
 pub mod export;
+pub mod gltf;
 mod hash;
 pub mod heightfield;
 pub mod horizon;

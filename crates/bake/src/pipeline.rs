@@ -22,6 +22,7 @@ pub use crate::jobs::curvature::CurvatureJob;
 pub use crate::jobs::heightfield::{HeightFormat, HeightfieldJob};
 pub use crate::jobs::horizon::HorizonJob;
 pub use crate::jobs::relief::ReliefJob;
+pub use crate::jobs::strands::StrandsJob;
 
 /// A parsed pipeline file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -66,6 +67,8 @@ pub enum Job {
     Curvature(CurvatureJob),
     /// Bake relief-mapping depth maps and a max-mip pyramid from a heightfield.
     Relief(ReliefJob),
+    /// Bake hair strip meshes (shading and opacity sets) from `.hair` or OBJ polylines.
+    Strands(StrandsJob),
 }
 
 /// A pipeline with the file it came from.

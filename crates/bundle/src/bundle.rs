@@ -208,7 +208,7 @@ pub(crate) fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(St
             bad(format!("byte_length {} is above the limit of {}", a.byte_length, limits.max_payload_bytes));
         }
         match (&a.payload, a.kind) {
-            (Payload::Texture(_), kind @ (AssetKind::Mesh | AssetKind::Curvature)) => {
+            (Payload::Texture(_), kind @ (AssetKind::Mesh | AssetKind::Curvature | AssetKind::Strands)) => {
                 bad(format!("kind {} does not match its texture payload", kind.name()))
             }
             (Payload::Texture(t), kind) => {
@@ -272,6 +272,16 @@ pub(crate) fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(St
                     }
                 }
             }
+            (Payload::Mesh(m), AssetKind::Strands) => {
+                for name in ["position", "side", "tangent", "param", "width", "opacity", "color"] {
+                    if m.attribute(name).is_none() {
+                        bad(format!("a strands mesh needs a `{name}` stream"));
+                    }
+                }
+                if m.indices.is_none() {
+                    bad("a strands mesh needs an index stream".into());
+                }
+            }
             (Payload::Mesh(_), kind) => bad(format!("kind {} does not match its mesh payload", kind.name())),
         }
         let settings_ok = matches!(
@@ -282,6 +292,7 @@ pub(crate) fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(St
                 | (Settings::Curvature(_), AssetKind::Curvature)
                 | (Settings::Relief(_), AssetKind::Relief)
                 | (Settings::MaxMip(_), AssetKind::MaxMip)
+                | (Settings::Strands(_), AssetKind::Strands)
                 | (Settings::Generic, AssetKind::Texture | AssetKind::Mesh)
         );
         if !settings_ok {

@@ -2,7 +2,7 @@
 
 use serde::Serialize;
 
-use crate::manifest::{Manifest, Payload, Settings};
+use crate::manifest::{Manifest, Payload, Settings, StrandsSettings};
 
 /// One asset as `hikage inspect` shows it.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -31,6 +31,24 @@ pub struct AssetSummary {
     pub index_count: u64,
     /// The settings the asset was baked with, as RON.
     pub settings: String,
+    /// For hair strips: the two sets drawn from the shared mesh.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub sets: Vec<StrandSet>,
+}
+
+/// One set of hair strips as `hikage inspect` shows it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct StrandSet {
+    /// `shading` or `opacity`.
+    pub name: String,
+    /// Vertices drawn.
+    pub vertex_count: u64,
+    /// Indices drawn.
+    pub index_count: u64,
+    /// Full width of a default strand, world units.
+    pub width: f32,
+    /// Opacity of a default strand.
+    pub alpha: f32,
 }
 
 /// The whole summary.
@@ -42,6 +60,19 @@ pub struct Summary {
     pub generator: String,
     /// One entry per asset, sorted by id.
     pub assets: Vec<AssetSummary>,
+}
+
+fn strand_sets(s: &StrandsSettings, vertices: u64, indices: u64) -> Vec<StrandSet> {
+    [("shading", s.shading), ("opacity", s.opacity)]
+        .into_iter()
+        .map(|(name, (width, alpha))| StrandSet {
+            name: name.into(),
+            vertex_count: vertices,
+            index_count: indices,
+            width,
+            alpha,
+        })
+        .collect()
 }
 
 /// Summarises a manifest.
@@ -68,6 +99,7 @@ pub fn summarize(manifest: &Manifest) -> Summary {
                     vertex_count: 0,
                     index_count: 0,
                     settings,
+                    sets: Vec::new(),
                 },
                 Payload::Mesh(m) => {
                     let indices = m.indices.as_ref().map_or(0, |i| i.count as u64);
@@ -84,6 +116,10 @@ pub fn summarize(manifest: &Manifest) -> Summary {
                         vertex_count: m.vertex_count as u64,
                         index_count: indices,
                         settings,
+                        sets: match &a.settings {
+                            Settings::Strands(st) => strand_sets(st, m.vertex_count as u64, indices),
+                            _ => Vec::new(),
+                        },
                     }
                 }
             }

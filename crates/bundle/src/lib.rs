@@ -43,7 +43,7 @@ pub use error::BundleError;
 pub use limits::Limits;
 pub use manifest::{
     AmbientOcclusionSettings, Asset, AssetKind, CurvatureSettings, EdgeMode, FormatVersion, HeightfieldSettings,
-    HorizonSettings, MANIFEST_FILE, Manifest, MaxMipSettings, Payload, ReliefSettings, Settings,
+    HorizonSettings, MANIFEST_FILE, Manifest, MaxMipSettings, Payload, ReliefSettings, Settings, StrandsSettings,
 };
 pub use mesh::{Accessor, ComponentType, MeshData, MeshDesc};
 pub use names::{is_valid_asset_id, payload_file_name};

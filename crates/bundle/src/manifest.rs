@@ -73,6 +73,13 @@ pub enum AssetKind {
     /// A max-mip pyramid of a heightfield: a one-channel 2D texture whose level 0 holds the
     /// samples and each further mip level the largest of the 2×2 texels below.
     MaxMip,
+    /// Hair strips (seed 004): a mesh with two vertices per strand point, to be expanded into a
+    /// view-facing strip in the vertex shader. F32 streams `position` (3, the centre line),
+    /// `side` (1, −1 or +1), `tangent` (3, averaged at joints), `param` (1, 0 at the root to 1 at
+    /// the tip), `width` (2: shading set, opacity set; full widths in world units), `opacity` (2,
+    /// same order), `color` (3), and U32 triangle-list indices, 6 per segment. Both sets share
+    /// the vertices and indices; they differ only in the width and opacity read.
+    Strands,
     /// A texture with no hikage-specific meaning (tests, user data).
     Texture,
     /// A mesh with no hikage-specific meaning.
@@ -89,6 +96,7 @@ impl AssetKind {
             AssetKind::Curvature => "curvature",
             AssetKind::Relief => "relief",
             AssetKind::MaxMip => "max_mip",
+            AssetKind::Strands => "strands",
             AssetKind::Texture => "texture",
             AssetKind::Mesh => "mesh",
         }
@@ -161,6 +169,30 @@ pub enum Settings {
     Relief(ReliefSettings),
     /// A max-mip pyramid.
     MaxMip(MaxMipSettings),
+    /// Hair strips.
+    Strands(StrandsSettings),
+}
+
+/// How hair strips were baked (seed 004). Widths and opacities are those of a strand with the
+/// source's default thickness and transparency; each strand's own values scale them.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StrandsSettings {
+    /// Strands.
+    pub strands: u32,
+    /// Points (each gives two vertices).
+    pub points: u32,
+    /// Shading set: full width (world units) and opacity.
+    pub shading: (f32, f32),
+    /// Opacity set: full width (world units) and opacity.
+    pub opacity: (f32, f32),
+    /// Width at the tip as a share lost: width × (1 − taper × param).
+    pub taper: f32,
+    /// Opacity-map resolution the opacity set was chosen for (`auto`), if it was.
+    pub auto_resolution: Option<u32>,
+    /// Light-independent bounds: the box around every strip of the wider set.
+    pub bounds_min: [f32; 3],
+    /// See `bounds_min`.
+    pub bounds_max: [f32; 3],
 }
 
 /// How a set of relief depth maps was baked (seed 003).

@@ -4,6 +4,7 @@ pub mod curvature;
 pub mod heightfield;
 pub mod horizon;
 pub mod relief;
+pub mod strands;
 
 use std::path::{Path, PathBuf};
 
@@ -51,6 +52,7 @@ impl Job {
             Job::Heightfield(j) => &j.id,
             Job::Horizon(j) => &j.id,
             Job::Relief(j) => &j.id,
+            Job::Strands(j) => &j.id,
             Job::Curvature(j) => &j.id,
         }
     }
@@ -61,6 +63,7 @@ impl Job {
             Job::Heightfield(_) => "heightfield",
             Job::Horizon(_) => "horizon",
             Job::Relief(_) => "relief",
+            Job::Strands(_) => "strands",
             Job::Curvature(_) => "curvature",
         }
     }
@@ -71,6 +74,7 @@ impl Job {
             Job::Heightfield(_) => heightfield::ALGORITHM_VERSION,
             Job::Horizon(_) => horizon::ALGORITHM_VERSION,
             Job::Relief(_) => relief::ALGORITHM_VERSION,
+            Job::Strands(_) => strands::ALGORITHM_VERSION,
             Job::Curvature(_) => curvature::ALGORITHM_VERSION,
         }
     }
@@ -81,6 +85,7 @@ impl Job {
             Job::Heightfield(j) => vec![base_dir.join(&j.input)],
             Job::Horizon(j) => vec![base_dir.join(&j.input)],
             Job::Relief(j) => vec![base_dir.join(&j.input)],
+            Job::Strands(j) => vec![base_dir.join(&j.input)],
             Job::Curvature(j) => vec![base_dir.join(&j.input)],
         }
     }
@@ -91,6 +96,7 @@ impl Job {
             Job::Heightfield(j) => vec![j.id.clone()],
             Job::Horizon(j) => j.outputs(),
             Job::Relief(j) => j.outputs(),
+            Job::Strands(j) => j.outputs(),
             Job::Curvature(j) => vec![j.id.clone()],
         }
     }
@@ -101,6 +107,7 @@ impl Job {
             Job::Heightfield(j) => j.canonical_settings(),
             Job::Horizon(j) => j.canonical_settings(),
             Job::Relief(j) => j.canonical_settings(),
+            Job::Strands(j) => j.canonical_settings(),
             Job::Curvature(j) => j.canonical_settings(),
         }
     }
@@ -117,6 +124,7 @@ impl Job {
             Job::Heightfield(j) => j.check(),
             Job::Horizon(j) => j.check(),
             Job::Relief(j) => j.check(),
+            Job::Strands(j) => j.check(),
             Job::Curvature(_) => Ok(()),
         }
     }
@@ -127,6 +135,7 @@ impl Job {
             Job::Heightfield(j) => j.load(ctx).map(|_| ()),
             Job::Horizon(j) => j.check_inputs(ctx),
             Job::Relief(j) => j.check_inputs(ctx),
+            Job::Strands(j) => j.check_inputs(ctx),
             Job::Curvature(j) => j.compute(ctx).map(|_| ()),
         }
     }
@@ -137,6 +146,7 @@ impl Job {
             Job::Heightfield(j) => j.bake(ctx),
             Job::Horizon(j) => j.bake(ctx),
             Job::Relief(j) => j.bake(ctx),
+            Job::Strands(j) => j.bake(ctx),
             Job::Curvature(j) => j.bake(ctx),
         }
     }

@@ -1,6 +1,11 @@
-//! Hair and fur strands: polylines with optional per-point thickness, transparency and colour.
+//! Hair and fur strands: polylines with optional per-point thickness, transparency and colour,
+//! read from Cem Yuksel's `.hair` format ([`cyhair`]) or OBJ polylines ([`obj`]).
 
+pub mod auto;
 pub mod cyhair;
+pub mod obj;
+pub mod ribbons;
+pub mod strips;
 
 /// A set of strands. Strand `s` owns `segments[s] + 1` consecutive points.
 #[derive(Clone, Debug, PartialEq)]
