@@ -2,13 +2,14 @@
 //!
 //! ```text
 //! cargo run --release --example bench              # every table
-//! cargo run --release --example bench -- relief    # one: horizon, relief, fit
+//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit
 //! ```
 //!
 //! Every figure is the best of several runs (machines here are noisy), with its baseline
 //! measured in the same run. Set `RAYON_NUM_THREADS` to change the thread count.
 
 mod fit;
+mod hair;
 mod horizon;
 mod relief;
 
@@ -50,6 +51,9 @@ fn main() {
     }
     if wanted("relief") {
         relief::run();
+    }
+    if wanted("hair") {
+        hair::run();
     }
     if wanted("fit") {
         fit::run();
