@@ -18,9 +18,8 @@ pub fn run() {
     println!("| input | build | strands/s | baseline | ratio | peak memory | output |");
     println!("|---|---|---|---|---|---|---|");
     let bytes = std::fs::read("data/head.hair").expect("run from the repository root (data/ is read)");
-    let (t_read, s) = best_of(5, || {
-        hikage_bake::strands::cyhair::decode(&bytes, &Default::default()).expect("the sample is valid")
-    });
+    let (t_read, s) =
+        best_of(5, || hikage_bake::strands::cyhair::decode(&bytes, &Default::default()).expect("the sample is valid"));
     let sets = StripSets::from_source(&s);
     let (t, mesh) = best_of(5, || strips::build(&s, &sets));
     println!(

@@ -15,6 +15,7 @@
 //! The runtime never links the baker: a game needs only this crate and `hikage-bundle`.
 
 mod error;
+pub mod hair;
 pub mod headless;
 pub mod horizon;
 pub mod horizon_sphere;

@@ -1,0 +1,554 @@
+//! Hair strips with anti-aliased deep opacity maps (seed 004): the WGSL of [`HAIR_WGSL`] and a
+//! CPU reference of its opacity accumulation.
+//!
+//! A `strands` asset holds two vertices per strand point; the vertex shader pushes them apart
+//! across the strand so the strip faces whoever looks (the light in the light passes, the camera
+//! when shading). Either set — thin shading strips or the wide faint opacity set — can be drawn
+//! into the opacity maps; the camera always draws the shading set.
+//!
+//! Light passes are orthographic with the depth range of the hair's bounding box (from the
+//! manifest): a depth map of the nearest hair `z0`, then 4 cumulative opacity layers with far
+//! boundaries at `z0 + d·k(k+1)/2` for k = 1…4 — integer multiples of `d`, layer k being k·d
+//! deep so far layers are wider (our reading of the seed's Fig. 2), with `d` the box's depth
+//! range / 10 so the last boundary reaches the far side of the box from the nearest hair.
+//! Opacities add in an `Rgba16Float` target (alpha-to-coverage cannot hold 0.0165). Shading
+//! interpolates the cumulative opacity between boundaries; visibility = 1 − min(opacity, 1).
+
+use glam::camera::rh::proj::directx;
+use glam::camera::rh::view::look_to_mat4;
+use glam::{Mat4, Vec3, Vec4};
+use hikage_bundle::MeshDesc;
+
+use crate::headless::Headless;
+
+/// WGSL of the passes (see the module docs).
+pub const HAIR_WGSL: &str = include_str!("shaders/hair.wgsl");
+
+/// Opacity layers per texel.
+pub const LAYERS: usize = 4;
+
+/// Which set a light pass draws.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HairSet {
+    /// Thin strips at the shading opacity (plain deep opacity maps).
+    Shading,
+    /// The wide, faint opacity set.
+    Opacity,
+}
+
+/// An orthographic light around the hair's bounding box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HairLight {
+    /// World → light clip; the box spans depth 0..1.
+    pub view_proj: Mat4,
+    /// Unit vector toward the light.
+    pub to_light: Vec3,
+    /// Layer step `d` in light NDC depth.
+    pub step: f32,
+}
+
+impl HairLight {
+    /// The light along `to_light` fitted to the box `[lo, hi]` (near and far from the box:
+    /// nothing outside it is drawn into the maps).
+    pub fn for_bounds(lo: Vec3, hi: Vec3, to_light: Vec3) -> HairLight {
+        let to_light = to_light.normalize();
+        let helper = if to_light.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
+        let view = look_to_mat4(Vec3::ZERO, -to_light, helper);
+        let (mut a, mut b) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for k in 0..8 {
+            let c = Vec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            );
+            let v = view.transform_point3(c);
+            (a, b) = (a.min(v), b.max(v));
+        }
+        // Looking along −z: the near side of the box has the largest z.
+        let proj = directx::orthographic(a.x, b.x, a.y, b.y, -b.z, -a.z);
+        HairLight { view_proj: proj * view, to_light, step: 1.0 / 10.0 }
+    }
+}
+
+/// The strips as plain arrays, for the CPU reference.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StripArrays {
+    /// Centre-line positions.
+    pub position: Vec<Vec3>,
+    /// −1 or +1.
+    pub side: Vec<f32>,
+    /// Unit tangents.
+    pub tangent: Vec<Vec3>,
+    /// (shading, opacity set) widths.
+    pub width: Vec<[f32; 2]>,
+    /// (shading, opacity set) opacities.
+    pub opacity: Vec<[f32; 2]>,
+    /// Triangle list.
+    pub indices: Vec<u32>,
+}
+
+/// The vertex `hair_expand` makes: the centre pushed half the width across the strand, facing
+/// `toward`.
+pub fn expand(p: Vec3, side: f32, t: Vec3, width: f32, toward: Vec3) -> Vec3 {
+    let mut across = t.cross(toward);
+    if across.length() < 1e-6 {
+        across = t.cross(Vec3::Z);
+        if across.length() < 1e-6 {
+            across = Vec3::X;
+        }
+    }
+    p + across.normalize() * (side * 0.5 * width)
+}
+
+/// Far boundary of layer `k` (1-based) above `z0`.
+pub fn boundary(z0: f32, step: f32, k: usize) -> f32 {
+    z0 + step * (k * (k + 1) / 2) as f32
+}
+
+/// CPU reference of the two light passes: the nearest depth per texel (1 where no hair) and
+/// the cumulative opacity layers, rasterising each triangle at texel centres.
+pub fn accumulate_cpu(s: &StripArrays, light: &HairLight, set: HairSet, resolution: u32) -> (Vec<f32>, Vec<[f32; 4]>) {
+    let r = resolution as usize;
+    let pick = usize::from(set == HairSet::Opacity);
+    let screen: Vec<(Vec3, f32)> = (0..s.position.len())
+        .map(|v| {
+            let w = expand(s.position[v], s.side[v], s.tangent[v], s.width[v][pick], light.to_light);
+            let c: Vec4 = light.view_proj * w.extend(1.0);
+            let ndc = c.truncate() / c.w;
+            (Vec3::new((ndc.x * 0.5 + 0.5) * r as f32, (0.5 - ndc.y * 0.5) * r as f32, ndc.z), s.opacity[v][pick])
+        })
+        .collect();
+    let mut z0 = vec![1.0f32; r * r];
+    let mut layers = vec![[0.0f32; 4]; r * r];
+    for pass in 0..2 {
+        for tri in s.indices.chunks_exact(3) {
+            let (a, b, c) = (screen[tri[0] as usize], screen[tri[1] as usize], screen[tri[2] as usize]);
+            let (pa, pb, pc) = (a.0, b.0, c.0);
+            let area = (pb.x - pa.x) * (pc.y - pa.y) - (pb.y - pa.y) * (pc.x - pa.x);
+            if area.abs() < 1e-12 {
+                continue;
+            }
+            let (x0, x1) = (
+                pa.x.min(pb.x).min(pc.x).floor().max(0.0) as usize,
+                pa.x.max(pb.x).max(pc.x).ceil().min(r as f32) as usize,
+            );
+            let (y0, y1) = (
+                pa.y.min(pb.y).min(pc.y).floor().max(0.0) as usize,
+                pa.y.max(pb.y).max(pc.y).ceil().min(r as f32) as usize,
+            );
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+                    let e = |p: Vec3, q: Vec3| ((q.x - p.x) * (py - p.y) - (q.y - p.y) * (px - p.x)) / area;
+                    let (wa, wb, wc) = (e(pb, pc), e(pc, pa), e(pa, pb));
+                    if wa < 0.0 || wb < 0.0 || wc < 0.0 {
+                        continue;
+                    }
+                    let z = wa * pa.z + wb * pb.z + wc * pc.z;
+                    let i = y * r + x;
+                    if pass == 0 {
+                        z0[i] = z0[i].min(z);
+                    } else {
+                        // Opacity is constant along a segment's cross-section; interpolate it too.
+                        let alpha = wa * a.1 + wb * b.1 + wc * c.1;
+                        let near = z0[i];
+                        for (k, layer) in layers[i].iter_mut().enumerate() {
+                            if z < boundary(near, light.step, k + 1) {
+                                *layer += alpha;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    (z0, layers)
+}
+
+/// The `HairFrame` uniform.
+fn frame_bytes(light: &HairLight, camera: Mat4, eye: Vec3, set: HairSet, resolution: u32) -> Vec<u8> {
+    let mut f: Vec<f32> = Vec::new();
+    f.extend(light.view_proj.to_cols_array());
+    f.extend(camera.to_cols_array());
+    f.extend([eye.x, eye.y, eye.z, 1.0]);
+    f.extend([light.to_light.x, light.to_light.y, light.to_light.z, 0.0]);
+    f.extend([0.0, 1.0, light.step, if set == HairSet::Opacity { 1.0 } else { 0.0 }]);
+    f.extend([resolution as f32, 0.0, 0.0, 0.0]);
+    f.iter().flat_map(|v| v.to_le_bytes()).collect()
+}
+
+/// Strip geometry on the GPU: the payload buffer of a `strands` mesh and its layout.
+pub struct GpuStrips<'a> {
+    /// The payload (usage `VERTEX | INDEX`).
+    pub buffer: &'a wgpu::Buffer,
+    /// Its layout.
+    pub desc: &'a MeshDesc,
+}
+
+const STREAMS: [(&str, wgpu::VertexFormat); 6] = [
+    ("position", wgpu::VertexFormat::Float32x3),
+    ("side", wgpu::VertexFormat::Float32),
+    ("tangent", wgpu::VertexFormat::Float32x3),
+    ("width", wgpu::VertexFormat::Float32x2),
+    ("opacity", wgpu::VertexFormat::Float32x2),
+    ("color", wgpu::VertexFormat::Float32x3),
+];
+
+impl GpuStrips<'_> {
+    fn layouts() -> Vec<wgpu::VertexBufferLayout<'static>> {
+        const ATTRS: [[wgpu::VertexAttribute; 1]; 6] = [
+            [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x3, offset: 0, shader_location: 0 }],
+            [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32, offset: 0, shader_location: 1 }],
+            [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x3, offset: 0, shader_location: 2 }],
+            [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x2, offset: 0, shader_location: 3 }],
+            [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x2, offset: 0, shader_location: 4 }],
+            [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x3, offset: 0, shader_location: 5 }],
+        ];
+        ATTRS
+            .iter()
+            .zip(STREAMS)
+            .map(|(a, (_, f))| wgpu::VertexBufferLayout {
+                array_stride: f.size(),
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: a,
+            })
+            .collect()
+    }
+
+    fn bind<'p>(&self, pass: &mut wgpu::RenderPass<'p>) -> Result<u32, String> {
+        for (slot, (name, _)) in STREAMS.iter().enumerate() {
+            let a = self.desc.attribute(name).ok_or_else(|| format!("the strands mesh has no `{name}` stream"))?;
+            pass.set_vertex_buffer(slot as u32, self.buffer.slice(a.offset..));
+        }
+        let ix = self.desc.indices.as_ref().ok_or("the strands mesh has no indices")?;
+        pass.set_index_buffer(self.buffer.slice(ix.offset..ix.offset + 4 * ix.count as u64), wgpu::IndexFormat::Uint32);
+        Ok(ix.count)
+    }
+}
+
+/// The opacity maps on the GPU: the depth map (R32Float) and the layers (Rgba16Float).
+pub struct OpacityMaps {
+    /// Nearest hair depth per texel, light NDC (1: none).
+    pub depth: wgpu::Texture,
+    /// Cumulative opacity of layers 1–4.
+    pub layers: wgpu::Texture,
+    /// Texels per side.
+    pub resolution: u32,
+}
+
+fn module(gpu: &Headless) -> wgpu::ShaderModule {
+    gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("hair"),
+        source: wgpu::ShaderSource::Wgsl(HAIR_WGSL.into()),
+    })
+}
+
+fn pipeline(
+    gpu: &Headless,
+    module: &wgpu::ShaderModule,
+    (vs, fs): (&str, &str),
+    buffers: &[Option<wgpu::VertexBufferLayout>],
+    target: wgpu::ColorTargetState,
+    depth: Option<wgpu::DepthStencilState>,
+) -> wgpu::RenderPipeline {
+    gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(fs),
+        layout: None,
+        vertex: wgpu::VertexState { module, entry_point: Some(vs), compilation_options: Default::default(), buffers },
+        primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+        depth_stencil: depth,
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some(fs),
+            compilation_options: Default::default(),
+            targets: &[Some(target)],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+fn texture(gpu: &Headless, size: (u32, u32), format: wgpu::TextureFormat, usage: wgpu::TextureUsages) -> wgpu::Texture {
+    gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: None,
+        size: wgpu::Extent3d { width: size.0, height: size.1, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}
+
+fn depth_state() -> wgpu::DepthStencilState {
+    wgpu::DepthStencilState {
+        format: wgpu::TextureFormat::Depth32Float,
+        depth_write_enabled: Some(true),
+        depth_compare: Some(wgpu::CompareFunction::Less),
+        stencil: Default::default(),
+        bias: Default::default(),
+    }
+}
+
+fn attach(view: &wgpu::TextureView, clear: wgpu::Color) -> Option<wgpu::RenderPassColorAttachment<'_>> {
+    Some(wgpu::RenderPassColorAttachment {
+        view,
+        depth_slice: None,
+        resolve_target: None,
+        ops: wgpu::Operations { load: wgpu::LoadOp::Clear(clear), store: wgpu::StoreOp::Store },
+    })
+}
+
+fn depth_attach(view: &wgpu::TextureView) -> Option<wgpu::RenderPassDepthStencilAttachment<'_>> {
+    Some(wgpu::RenderPassDepthStencilAttachment {
+        view,
+        depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+        stencil_ops: None,
+    })
+}
+
+/// Renders the depth map and the opacity layers of `strips` drawn with `set`.
+pub fn render_opacity_maps(
+    gpu: &Headless,
+    strips: &GpuStrips,
+    light: &HairLight,
+    set: HairSet,
+    resolution: u32,
+) -> Result<OpacityMaps, String> {
+    let module = module(gpu);
+    let layouts: Vec<_> = GpuStrips::layouts().into_iter().map(Some).collect();
+    let usage =
+        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC;
+    let size = (resolution, resolution);
+    let depth = texture(gpu, size, wgpu::TextureFormat::R32Float, usage);
+    let layers = texture(gpu, size, wgpu::TextureFormat::Rgba16Float, usage);
+    let zbuf = texture(gpu, size, wgpu::TextureFormat::Depth32Float, wgpu::TextureUsages::RENDER_ATTACHMENT);
+    let plain = |format| wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL };
+    let add = wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    };
+    let depth_pipe = pipeline(
+        gpu,
+        &module,
+        ("vs_light", "fs_depth"),
+        &layouts,
+        plain(wgpu::TextureFormat::R32Float),
+        Some(depth_state()),
+    );
+    let layer_pipe = pipeline(
+        gpu,
+        &module,
+        ("vs_light", "fs_opacity"),
+        &layouts,
+        wgpu::ColorTargetState {
+            format: wgpu::TextureFormat::Rgba16Float,
+            blend: Some(wgpu::BlendState { color: add, alpha: add }),
+            write_mask: wgpu::ColorWrites::ALL,
+        },
+        None,
+    );
+    let frame = frame_bytes(light, Mat4::IDENTITY, Vec3::ZERO, set, resolution);
+    let ubuf = gpu.buffer(frame.len() as u64, wgpu::BufferUsages::UNIFORM, Some(&frame));
+    let dview = depth.create_view(&Default::default());
+    let lview = layers.create_view(&Default::default());
+    let zview = zbuf.create_view(&Default::default());
+    let depth_bind = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &depth_pipe.get_bind_group_layout(0),
+        entries: &[wgpu::BindGroupEntry { binding: 0, resource: ubuf.as_entire_binding() }],
+    });
+    let layer_bind = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &layer_pipe.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: ubuf.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&dview) },
+        ],
+    });
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("hair depth"),
+            color_attachments: &[attach(&dview, wgpu::Color { r: 1.0, g: 1.0, b: 1.0, a: 1.0 })],
+            depth_stencil_attachment: depth_attach(&zview),
+            ..Default::default()
+        });
+        pass.set_pipeline(&depth_pipe);
+        pass.set_bind_group(0, &depth_bind, &[]);
+        let n = strips.bind(&mut pass)?;
+        pass.draw_indexed(0..n, 0, 0..1);
+    }
+    {
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("hair opacity"),
+            color_attachments: &[attach(&lview, wgpu::Color::TRANSPARENT)],
+            ..Default::default()
+        });
+        pass.set_pipeline(&layer_pipe);
+        pass.set_bind_group(0, &layer_bind, &[]);
+        let n = strips.bind(&mut pass)?;
+        pass.draw_indexed(0..n, 0, 0..1);
+    }
+    gpu.queue.submit([enc.finish()]);
+    Ok(OpacityMaps { depth, layers, resolution })
+}
+
+impl OpacityMaps {
+    /// Reads both maps back: depth per texel and the four layers.
+    pub fn read(&self, gpu: &Headless) -> (Vec<f32>, Vec<[f32; 4]>) {
+        let d = gpu.read_texture(&self.depth);
+        let l = gpu.read_texture(&self.layers);
+        let depth = d.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        let layers = l
+            .chunks_exact(8)
+            .map(|c| std::array::from_fn(|k| half_to_f32(u16::from_le_bytes([c[2 * k], c[2 * k + 1]]))))
+            .collect();
+        (depth, layers)
+    }
+}
+
+/// IEEE half → f32 (the runtime does not link a half-float crate for one readback).
+fn half_to_f32(h: u16) -> f32 {
+    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exp = ((h >> 10) & 0x1f) as i32;
+    let frac = (h & 0x3ff) as f32;
+    sign * match exp {
+        0 => frac * 2f32.powi(-24),
+        31 => f32::INFINITY,
+        _ => (1.0 + frac / 1024.0) * 2f32.powi(exp - 15),
+    }
+}
+
+/// A camera view of the hair (shading set, Kajiya-Kay) over a ground quad, both shadowed from
+/// `maps`; and the ground's visibility seen by `ground_camera` (R32Float), for the aliasing
+/// figure. Returns (RGBA8 image, visibility image).
+#[allow(clippy::too_many_arguments)]
+pub fn render_scene(
+    gpu: &Headless,
+    strips: &GpuStrips,
+    maps: &OpacityMaps,
+    light: &HairLight,
+    (camera, eye): (Mat4, Vec3),
+    ground: [Vec3; 4],
+    ground_camera: Mat4,
+    size: (u32, u32),
+) -> Result<(Vec<u8>, Vec<f32>), String> {
+    let module = module(gpu);
+    let layouts: Vec<_> = GpuStrips::layouts().into_iter().map(Some).collect();
+    let ground_layout = [Some(wgpu::VertexBufferLayout {
+        array_stride: 12,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &wgpu::vertex_attr_array![0 => Float32x3],
+    })];
+    let plain = |format| wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL };
+    let rgba = wgpu::TextureFormat::Rgba8Unorm;
+    let hair_pipe = pipeline(gpu, &module, ("vs_hair", "fs_hair"), &layouts, plain(rgba), Some(depth_state()));
+    let ground_pipe =
+        pipeline(gpu, &module, ("vs_ground", "fs_ground"), &ground_layout, plain(rgba), Some(depth_state()));
+    let vis_pipe = pipeline(
+        gpu,
+        &module,
+        ("vs_ground", "fs_ground_visibility"),
+        &ground_layout,
+        plain(wgpu::TextureFormat::R32Float),
+        None,
+    );
+    let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
+    let color = texture(gpu, size, rgba, usage);
+    let zbuf = texture(gpu, size, wgpu::TextureFormat::Depth32Float, wgpu::TextureUsages::RENDER_ATTACHMENT);
+    let vis = texture(gpu, size, wgpu::TextureFormat::R32Float, usage);
+    let frame = frame_bytes(light, camera, eye, HairSet::Shading, maps.resolution);
+    let top = frame_bytes(light, ground_camera, eye, HairSet::Shading, maps.resolution);
+    let ubuf = gpu.buffer(frame.len() as u64, wgpu::BufferUsages::UNIFORM, Some(&frame));
+    let tbuf = gpu.buffer(top.len() as u64, wgpu::BufferUsages::UNIFORM, Some(&top));
+    let quad: Vec<u8> =
+        [0usize, 1, 2, 0, 2, 3].iter().flat_map(|&i| ground[i].to_array()).flat_map(f32::to_le_bytes).collect();
+    let gbuf = gpu.buffer(quad.len() as u64, wgpu::BufferUsages::VERTEX, Some(&quad));
+    let (dview, lview) = (maps.depth.create_view(&Default::default()), maps.layers.create_view(&Default::default()));
+    let bind = |pipe: &wgpu::RenderPipeline, u: &wgpu::Buffer| {
+        gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &pipe.get_bind_group_layout(0),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: u.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&dview) },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&lview) },
+            ],
+        })
+    };
+    let (hb, gb, vb) = (bind(&hair_pipe, &ubuf), bind(&ground_pipe, &ubuf), bind(&vis_pipe, &tbuf));
+    let (cview, zview, vview) = (
+        color.create_view(&Default::default()),
+        zbuf.create_view(&Default::default()),
+        vis.create_view(&Default::default()),
+    );
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("hair scene"),
+            color_attachments: &[attach(&cview, wgpu::Color { r: 0.55, g: 0.65, b: 0.8, a: 1.0 })],
+            depth_stencil_attachment: depth_attach(&zview),
+            ..Default::default()
+        });
+        pass.set_pipeline(&ground_pipe);
+        pass.set_bind_group(0, &gb, &[]);
+        pass.set_vertex_buffer(0, gbuf.slice(..));
+        pass.draw(0..6, 0..1);
+        pass.set_pipeline(&hair_pipe);
+        pass.set_bind_group(0, &hb, &[]);
+        let n = strips.bind(&mut pass)?;
+        pass.draw_indexed(0..n, 0, 0..1);
+    }
+    {
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("ground visibility"),
+            color_attachments: &[attach(&vview, wgpu::Color::WHITE)],
+            ..Default::default()
+        });
+        pass.set_pipeline(&vis_pipe);
+        pass.set_bind_group(0, &vb, &[]);
+        pass.set_vertex_buffer(0, gbuf.slice(..));
+        pass.draw(0..6, 0..1);
+    }
+    gpu.queue.submit([enc.finish()]);
+    let image = gpu.read_texture(&color);
+    let v = gpu.read_texture(&vis).chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    Ok((image, v))
+}
+
+/// Aliasing of a shadow image: the mean squared difference between each pixel and the mean of
+/// its 3×3 neighbourhood (high-frequency energy), over pixels in shadow (visibility < 0.98) or
+/// next to one, relative to the squared mean darkness there. Holes and stripes in a shadow raise
+/// it; a smooth shadow of the same darkness keeps it low.
+pub fn high_frequency_energy(v: &[f32], (w, h): (u32, u32)) -> f64 {
+    let (w, h) = (w as usize, h as usize);
+    let (mut energy, mut dark, mut n) = (0.0f64, 0.0f64, 0usize);
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let mut sum = 0.0f64;
+            let mut any = false;
+            for dy in 0..3 {
+                for dx in 0..3 {
+                    let s = v[(y + dy - 1) * w + x + dx - 1] as f64;
+                    sum += s;
+                    any |= s < 0.98;
+                }
+            }
+            if !any {
+                continue;
+            }
+            let c = v[y * w + x] as f64;
+            energy += (c - sum / 9.0).powi(2);
+            dark += 1.0 - c;
+            n += 1;
+        }
+    }
+    if n == 0 || dark == 0.0 {
+        return 0.0;
+    }
+    (energy / n as f64) / (dark / n as f64).powi(2)
+}
