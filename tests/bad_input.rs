@@ -370,7 +370,11 @@ fn crafted_hair_files_are_refused_with_their_place() {
         ("overrun.hair", patch(128, &7u16.to_le_bytes()), vec!["segments", "account for 10 points, the header says 5"]),
         ("nan.hair", nan, vec!["point 1", "finite position"]),
         ("negative.hair", negative, vec!["point 2", "thickness"]),
-        ("huge.hair", patch(8, &4_000_000_000u32.to_le_bytes()), vec!["header", "limit", "4000000000"]),
+        (
+            "huge.hair",
+            patch(8, &4_000_000_000u32.to_le_bytes()),
+            vec!["point count in the header", "limit", "4000000000"],
+        ),
         ("short.hair", good[..60].to_vec(), vec!["128-byte header"]),
         ("empty.hair", Vec::new(), vec!["expected a .hair signature or OBJ", "at least one"]),
         ("lines.obj", b"v 0 0 0\nv 1 0 0\nl 1 5\n".to_vec(), vec!["line 3", "out of range"]),
@@ -390,4 +394,79 @@ fn crafted_hair_files_are_refused_with_their_place() {
     dir.run(&["strands", "ok.hair", "--out", "b", "--taper", "0.5"]);
     let out = dir.run_expecting(&["strands", "ok.hair", "--out", "b", "--taper", "2"], 1);
     assert!(stderr(&out).contains("taper"), "{}", stderr(&out));
+}
+
+/// Hostile sizes are refused before anything is allocated, and the process stays small: a
+/// manifest claiming ten million assets (a 3 GB sparse file), a PNG header claiming
+/// 100000×100000, a KTX2 level claiming 2^40 bytes, a `.hair` header claiming 4 billion points.
+/// Peak memory of each `hikage` run is measured with `/usr/bin/time` (installed by `.ci/run`)
+/// and must stay under 200 MB.
+#[test]
+fn hostile_sizes_are_refused_in_little_memory() {
+    let dir = Dir::new("hostile_sizes");
+    // Ten million assets: the manifest's size alone exceeds the limit; the file is sparse.
+    std::fs::create_dir_all(dir.path("ten_million")).unwrap();
+    let mut text = String::from("(format: (major: 1, minor: 2), generator: \"x\", assets: [\n");
+    for k in 0..1000 {
+        text.push_str(&format!("(id: \"a{k}\", kind: Texture, file: \"f{k}\", byte_length: 1, blake3: \"{}\", input_hash: \"\", payload: Texture((format: R8Unorm, dimension: D2, width: 1, height: 1, depth: 1, layers: 1, levels: 1, supercompression: None, channels: [\"x\"])), settings: Generic),\n", "0".repeat(64)));
+    }
+    let f = std::fs::File::create(dir.path("ten_million/bundle.ron")).unwrap();
+    use std::io::Write;
+    (&f).write_all(text.as_bytes()).unwrap();
+    f.set_len(3 << 30).unwrap();
+    // The PNG and the pipeline that reads it.
+    dir.write("data/huge.png", png_header_only(100_000, 100_000));
+    dir.write("huge.ron", "(output: \"b\", jobs: [Heightfield(id: \"h\", input: \"data/huge.png\")])");
+    // A bundle whose texture's level index claims 2^40 bytes (the manifest agrees with it).
+    let ktx = std::fs::read(crate::util::repo().join("tests/corpus/ktx2/level_of_2e40_bytes.ktx2")).unwrap();
+    std::fs::create_dir_all(dir.path("ktx")).unwrap();
+    let src = crate::util::repo().join("tests/corpus/bundle_hash_mismatch");
+    let manifest = std::fs::read_to_string(src.join("bundle.ron")).unwrap();
+    let payload = std::fs::read_dir(&src)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .find(|n| n.to_string_lossy().ends_with(".ktx2"))
+        .unwrap();
+    std::fs::write(dir.path("ktx").join(&payload), &ktx).unwrap();
+    let hash = blake3::hash(&ktx).to_hex().to_string();
+    let old_hash = manifest.split("blake3: \"").nth(1).unwrap()[..64].to_string();
+    let manifest =
+        manifest.replace(&old_hash, &hash).replace("byte_length: 208", &format!("byte_length: {}", ktx.len()));
+    dir.write("ktx/bundle.ron", manifest);
+    // Four billion points.
+    let mut hair = hair_bytes();
+    hair[8..12].copy_from_slice(&4_000_000_000u32.to_le_bytes());
+    dir.write("huge.hair", &hair);
+
+    let time = std::path::Path::new("/usr/bin/time");
+    for (args, needle) in [
+        (vec!["validate", "ten_million"], "manifest size"),
+        (vec!["validate", "huge.ron"], "100000"),
+        (vec!["validate", "ktx"], "level 0 claims 1099511627776 uncompressed bytes"),
+        (vec!["strands", "huge.hair", "--out", "b"], "4000000000"),
+    ] {
+        let (status, stderr, peak_kib) = if time.exists() {
+            let out = std::process::Command::new(time)
+                .args(["-f", "PEAK_KIB %M"])
+                .arg(env!("CARGO_BIN_EXE_hikage"))
+                .args(&args)
+                .current_dir(dir.path("."))
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&out.stderr).into_owned();
+            let peak = err.lines().find_map(|l| l.strip_prefix("PEAK_KIB ")).and_then(|v| v.trim().parse::<u64>().ok());
+            // `validate` reports problems on stdout.
+            (out.status, format!("{}{err}", String::from_utf8_lossy(&out.stdout)), peak)
+        } else {
+            eprintln!("/usr/bin/time not installed: peak memory not measured");
+            let out = dir.run_expecting(&args, 1);
+            (out.status, format!("{}{}", stdout(&out), stderr(&out)), None)
+        };
+        assert_eq!(status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(stderr.contains(needle), "{args:?}: {stderr}");
+        if let Some(kib) = peak_kib {
+            eprintln!("{args:?}: peak {} MB", kib / 1024);
+            assert!(kib < 200 * 1024, "{args:?} peaked at {kib} KiB");
+        }
+    }
 }

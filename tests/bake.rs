@@ -84,6 +84,15 @@ fn rebake_skips_everything_and_leaves_the_bundle_byte_identical() {
 fn thread_count_does_not_change_a_byte() {
     let one = Dir::with_default_pipeline("jobs1");
     let two = Dir::with_default_pipeline("jobs2");
+    // The default pipeline holds every kind of job, so this covers them all.
+    let kinds: std::collections::BTreeSet<&str> = hikage_bake::Pipeline::load(&one.path("pipeline.ron"))
+        .unwrap()
+        .pipeline
+        .jobs
+        .iter()
+        .map(|j| j.kind())
+        .collect();
+    assert_eq!(kinds.into_iter().collect::<Vec<_>>(), ["curvature", "heightfield", "horizon", "relief", "strands"]);
     one.run(&["bake", "--jobs", "1"]);
     two.run(&["bake", "--jobs", "2"]);
     assert_eq!(snapshot(&one.path("bundle")), snapshot(&two.path("bundle")));

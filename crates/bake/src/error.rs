@@ -67,6 +67,19 @@ pub enum BakeError {
 }
 
 impl BakeError {
+    /// A short stable name of the error's class (`input`, `limit`, …), for tests and tools
+    /// that sort errors without parsing messages.
+    pub fn class(&self) -> &'static str {
+        match self {
+            BakeError::Io { .. } => "io",
+            BakeError::Input { .. } => "input",
+            BakeError::Pipeline { .. } => "pipeline",
+            BakeError::Setting { .. } => "setting",
+            BakeError::Limit { .. } => "limit",
+            BakeError::Bundle(e) => e.class(),
+        }
+    }
+
     /// True when the error comes from the operating system (missing file, permissions, full
     /// disk) rather than from the content of a file.
     pub fn is_io(&self) -> bool {

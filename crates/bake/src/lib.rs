@@ -21,6 +21,7 @@
 pub mod curvature;
 mod error;
 pub mod export;
+pub mod fuzzing;
 pub mod gltf;
 mod hash;
 pub mod heightfield;

@@ -97,8 +97,15 @@ impl LoadedPipeline {
 impl Pipeline {
     /// Reads and parses a pipeline file, then checks every job's settings.
     pub fn load(path: &Path) -> Result<LoadedPipeline, BakeError> {
-        let text = std::fs::read_to_string(path).map_err(|e| BakeError::io(path, e))?;
-        let pipeline = Pipeline::parse(&text, path)?;
+        let bytes = std::fs::read(path).map_err(|e| BakeError::io(path, e))?;
+        // Not UTF-8 is malformed content, not an I/O failure.
+        let text = std::str::from_utf8(&bytes).map_err(|e| BakeError::Pipeline {
+            path: path.to_path_buf(),
+            line: 1 + bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count(),
+            col: 1 + bytes[..e.valid_up_to()].iter().rev().take_while(|&&b| b != b'\n').count(),
+            message: "expected UTF-8 text".into(),
+        })?;
+        let pipeline = Pipeline::parse(text, path)?;
         let base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let loaded = LoadedPipeline { path: path.to_path_buf(), base_dir, pipeline };
         loaded.pipeline.check(path)?;

@@ -99,6 +99,22 @@ pub enum BundleError {
 }
 
 impl BundleError {
+    /// A short stable name of the error's class (`input`, `limit`, …), for tests and tools
+    /// that sort errors without parsing messages.
+    pub fn class(&self) -> &'static str {
+        match self {
+            BundleError::Io { .. } => "io",
+            BundleError::ManifestSyntax { .. } => "manifest_syntax",
+            BundleError::UnsupportedVersion { .. } => "unsupported_version",
+            BundleError::InvalidAsset { .. } => "invalid_asset",
+            BundleError::Payload { .. } => "payload",
+            BundleError::Ktx2 { .. } => "ktx2",
+            BundleError::Limit { .. } => "limit",
+            BundleError::Lookup { .. } => "lookup",
+            BundleError::InvalidData(_) => "invalid_data",
+        }
+    }
+
     /// True when the error comes from the operating system (missing file, permissions, full
     /// disk) rather than from the content of a file.
     pub fn is_io(&self) -> bool {

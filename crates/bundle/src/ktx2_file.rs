@@ -184,6 +184,8 @@ pub fn read_desc(bytes: &[u8], path: &Path, limits: &Limits) -> Result<TextureDe
     if bytes.len() < 12 || bytes[..12] != IDENTIFIER {
         return Err(err("expected the KTX2 identifier «KTX 20» at byte 0".into()));
     }
+    check_level_index(bytes, limits).map_err(|m| err(format!("KTX2 level index: {m}")))?;
+    check_basic_dfd(bytes).map_err(|m| err(format!("KTX2 data format descriptor: {m}")))?;
     let reader = ktx2::Reader::new(bytes).map_err(|e| err(format!("malformed KTX2: {e}")))?;
     let h = reader.header();
     let vk = u32::from_le_bytes(bytes[12..16].try_into().expect("12 identifier + 4 bytes"));
@@ -232,6 +234,70 @@ pub fn read_desc(bytes: &[u8], path: &Path, limits: &Limits) -> Result<TextureDe
     };
     desc.check(limits).map_err(|m| err(format!("header: {m}")))?;
     Ok(desc)
+}
+
+/// Texel block dimensions in a basic data format descriptor block are stored minus one, so 255
+/// would mean 256: no format has that, and the `ktx2` crate's parser panics on it (0.5.0,
+/// found by fuzzing). Refused here first.
+fn check_basic_dfd(bytes: &[u8]) -> Result<(), String> {
+    let (offset, length) = (bytes_u32(bytes, 48) as usize, bytes_u32(bytes, 52) as usize);
+    let end = offset.saturating_add(length).min(bytes.len());
+    let mut at = offset.saturating_add(4); // past dfdTotalSize
+    while at.saturating_add(16) <= end {
+        let kind = bytes_u32(bytes, at);
+        let size = u16::from_le_bytes([bytes[at + 6], bytes[at + 7]]) as usize;
+        if kind == 0 {
+            if let Some(d) = bytes[at + 12..at + 16].iter().position(|&d| d == 255) {
+                return Err(format!("texel block dimension {d} is 256 (byte {}), expected at most 255", at + 12 + d));
+            }
+        }
+        if size == 0 {
+            break;
+        }
+        at = at.saturating_add(size);
+    }
+    Ok(())
+}
+
+/// The level index (byte 80 on, 24 bytes a level) against the file's length and the texture
+/// byte limit, before any parser trusts it: a level claiming 2^40 bytes is named as such.
+fn check_level_index(bytes: &[u8], limits: &Limits) -> Result<(), String> {
+    if bytes.len() < 80 {
+        return Err(format!("expected an 80-byte header, found a {}-byte file", bytes.len()));
+    }
+    let levels = bytes_u32(bytes, 40).max(1) as usize;
+    if levels > 32 {
+        return Err(format!("header levelCount is {levels}, at most 32 levels exist"));
+    }
+    if bytes.len() < 80 + 24 * levels {
+        return Err(format!(
+            "the index of {levels} levels needs {} bytes, the file has {}",
+            80 + 24 * levels,
+            bytes.len()
+        ));
+    }
+    let u64_at = |at: usize| u64::from_le_bytes(bytes[at..at + 8].try_into().expect("8 bytes"));
+    for l in 0..levels {
+        let at = 80 + 24 * l;
+        let (offset, length, uncompressed) = (u64_at(at), u64_at(at + 8), u64_at(at + 16));
+        if uncompressed > limits.max_texture_bytes {
+            return Err(format!(
+                "level {l} claims {uncompressed} uncompressed bytes (byte {}), above the limit of {}",
+                at + 16,
+                limits.max_texture_bytes
+            ));
+        }
+        match offset.checked_add(length) {
+            Some(end) if end <= bytes.len() as u64 => {}
+            _ => {
+                return Err(format!(
+                    "level {l} claims bytes {offset}..{offset}+{length} (byte {at}), past the end of the {}-byte file",
+                    bytes.len()
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 fn bytes_u32(bytes: &[u8], at: usize) -> u32 {

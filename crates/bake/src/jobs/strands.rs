@@ -196,12 +196,11 @@ pub fn load(path: &Path) -> Result<Strands, BakeError> {
     }
     let bytes = std::fs::read(path).map_err(|e| BakeError::io(path, e))?;
     if bytes.starts_with(b"HAIR") || bytes.starts_with(b"hair") {
-        return cyhair::decode(&bytes, &limits).map_err(|e| {
-            if e.limit {
-                BakeError::input(path, Some(e.place), format!("limit exceeded: {}", e.message))
-            } else {
-                BakeError::input(path, Some(e.place), e.message)
+        return cyhair::decode(&bytes, &limits).map_err(|e| match e.over_limit {
+            Some((value, limit)) => {
+                BakeError::Limit { path: path.into(), what: format!("{} in the header", e.message), value, limit }
             }
+            None => BakeError::input(path, Some(e.place), e.message),
         });
     }
     let text = std::str::from_utf8(&bytes).map_err(|e| {

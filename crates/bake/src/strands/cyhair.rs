@@ -89,12 +89,13 @@ pub struct HairError {
     pub place: String,
     /// What was expected and what was found.
     pub message: String,
-    /// True when a configured limit was exceeded (rather than the file being malformed).
-    pub limit: bool,
+    /// `(claimed, limit)` when a configured limit was exceeded (rather than the file being
+    /// malformed).
+    pub over_limit: Option<(u64, u64)>,
 }
 
 fn bad(place: impl Into<String>, message: impl Into<String>) -> HairError {
-    HairError { place: place.into(), message: message.into(), limit: false }
+    HairError { place: place.into(), message: message.into(), over_limit: None }
 }
 
 fn u32_at(b: &[u8], at: usize) -> u32 {
@@ -123,11 +124,7 @@ pub fn decode(bytes: &[u8], limits: &HairLimits) -> Result<Strands, HairError> {
         (u32_at(bytes, 4) as u64, u32_at(bytes, 8) as u64, u32_at(bytes, 12), u32_at(bytes, 16));
     for (what, n, max) in [("strand count", strands, limits.max_strands), ("point count", points, limits.max_points)] {
         if n > max {
-            return Err(HairError {
-                place: "header".into(),
-                message: format!("{what} {n} is above the limit of {max}"),
-                limit: true,
-            });
+            return Err(HairError { place: "header".into(), message: what.into(), over_limit: Some((n, max)) });
         }
     }
     if flags & HAS_POINTS == 0 {
@@ -274,7 +271,7 @@ mod tests {
         };
         let limits = HairLimits::default();
         let e = decode(&with(8, 4_000_000_000), &limits).unwrap_err();
-        assert!(e.limit && e.message.contains("point count 4000000000"), "{e:?}");
+        assert_eq!((e.message.as_str(), e.over_limit), ("point count", Some((4_000_000_000, 100_000_000))), "{e:?}");
         let e = decode(&with(8, 50), &limits).unwrap_err();
         assert!(e.message.contains("need") && e.message.contains("bytes"), "{e:?}");
         let e = decode(&with(8, 4), &limits).unwrap_err();

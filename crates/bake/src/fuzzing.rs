@@ -1,0 +1,115 @@
+//! Entry points of the fuzz targets (`fuzz/`, cargo-fuzz) and of the test that replays their
+//! regression corpus: one function per reader of untrusted input. Each takes arbitrary bytes,
+//! runs the reader the way the CLI does, and discards the result; the property checked is that
+//! none of them panics, overflows or allocates without bound. Readers that take a path get a
+//! file in a per-process temporary directory.
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use hikage_bundle::{Limits, Manifest};
+
+/// A per-process scratch directory (`$TMPDIR/hikage-fuzz-<pid>`).
+fn scratch() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = std::env::temp_dir().join(format!("hikage-fuzz-{}", std::process::id()));
+        let _ = std::fs::create_dir_all(&dir);
+        dir
+    })
+}
+
+/// `bundle.ron` text → [`Manifest::parse`].
+pub fn manifest(data: &[u8]) {
+    if let Ok(text) = std::str::from_utf8(data) {
+        let _ = Manifest::parse(text, Path::new("<fuzz>/bundle.ron"));
+    }
+}
+
+/// A bundle directory whose `bundle.ron` is `data`, beside one valid 4×4 R8 KTX2 payload
+/// `t.ktx2`: [`hikage_bundle::validate`], then [`hikage_bundle::Bundle::open`] and every asset
+/// read.
+pub fn bundle(data: &[u8]) {
+    let dir = scratch().join("bundle");
+    let _ = std::fs::create_dir_all(&dir);
+    static PAYLOAD: OnceLock<()> = OnceLock::new();
+    PAYLOAD.get_or_init(|| {
+        let hf = crate::Heightfield::from_samples(4, 4, (0..16).map(|i| i as f32 / 15.0).collect());
+        if let Ok(t) = hf.to_texture(hikage_bundle::TextureFormat::R16Float) {
+            if let Ok(bytes) = hikage_bundle::ktx2_file::encode(&t, "fuzz") {
+                let _ = std::fs::write(scratch().join("bundle").join("t.ktx2"), bytes);
+            }
+        }
+    });
+    if std::fs::write(dir.join(hikage_bundle::MANIFEST_FILE), data).is_err() {
+        return;
+    }
+    let _ = hikage_bundle::validate(&dir);
+    if let Ok(b) = hikage_bundle::Bundle::open(&dir) {
+        for a in &b.manifest().assets {
+            let _ = b.read_payload(a);
+            let _ = b.read_texture(&a.id);
+            let _ = b.read_mesh(&a.id);
+        }
+    }
+}
+
+/// KTX2 bytes → the reader's header check and full decode (default limits).
+pub fn ktx2(data: &[u8]) {
+    let path = Path::new("<fuzz>.ktx2");
+    let limits = Limits::default();
+    let _ = hikage_bundle::ktx2_file::read_desc(data, path, &limits);
+    let _ = hikage_bundle::ktx2_file::decode(data, path, &limits);
+}
+
+/// `.hair` bytes → [`crate::strands::cyhair::decode`], and strips of what it accepts.
+pub fn hair(data: &[u8]) {
+    let limits = crate::strands::cyhair::HairLimits { max_strands: 100_000, max_points: 1_000_000 };
+    if let Ok(s) = crate::strands::cyhair::decode(data, &limits) {
+        let sets = crate::strands::strips::StripSets::from_source(&s);
+        let _ = crate::strands::strips::build(&s, &sets);
+    }
+}
+
+/// OBJ text → [`crate::strands::obj::parse`] (polylines), and strips of what it accepts.
+pub fn obj_polylines(data: &[u8]) {
+    if let Ok(text) = std::str::from_utf8(data) {
+        if let Ok(s) = crate::strands::obj::parse(text, 1_000_000) {
+            let sets = crate::strands::strips::StripSets::from_source(&s);
+            let _ = crate::strands::strips::build(&s, &sets);
+        }
+    }
+}
+
+/// `pipeline.ron` text → parse and check every job's settings.
+pub fn pipeline(data: &[u8]) {
+    if let Ok(text) = std::str::from_utf8(data) {
+        let path = Path::new("<fuzz>/pipeline.ron");
+        if let Ok(p) = crate::Pipeline::parse(text, path) {
+            let _ = p.check(path);
+        }
+    }
+}
+
+/// PNG or OpenEXR bytes → [`crate::heightfield::load_samples`] (sides up to 1024).
+pub fn heightfield(data: &[u8]) {
+    let path = scratch().join("heightfield");
+    if std::fs::write(&path, data).is_ok() {
+        let options = crate::LoadOptions { channel: None, max_dimension: 1024 };
+        let _ = crate::heightfield::load_samples(&path, &options);
+    }
+}
+
+/// A fuzz entry point.
+pub type Target = fn(&[u8]);
+
+/// The targets by name, for the regression replay.
+pub const TARGETS: [(&str, Target); 7] = [
+    ("manifest", manifest),
+    ("bundle", bundle),
+    ("ktx2", ktx2),
+    ("hair", hair),
+    ("obj_polylines", obj_polylines),
+    ("pipeline", pipeline),
+    ("heightfield", heightfield),
+];
