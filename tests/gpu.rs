@@ -536,7 +536,7 @@ fn shadow_fit_scene_sigma_matches_the_cpu() {
     use hikage_runtime::glam::camera::rh::proj::directx;
     use hikage_runtime::glam::camera::rh::view::look_at_mat4;
     use hikage_runtime::shadow_fit::{self, FitOptions, Light, Scratch};
-    use hikage_runtime::shadow_scene::{FrameSetup, Scene, frame_stats, render_frame, sigma_cpu};
+    use hikage_runtime::shadow_scene::{FrameSetup, Scene, check_sigma, frame_stats, render_frame};
 
     let Some(g) = gpu("shadow_fit_scene_sigma_matches_the_cpu") else { return };
     let scene = Scene::boxes(60, 100.0, 3);
@@ -559,25 +559,7 @@ fn shadow_fit_scene_sigma_matches_the_cpu() {
     for light_matrix in [shadow_fit::fixed(light, &options), fit.view_proj] {
         let setup = FrameSetup { camera, light: light_matrix, resolution: 512, size };
         let data = render_frame(&g, &scene, &setup);
-        let (mut checked, mut agree) = (0, 0);
-        for i in (0..data.world.len()).step_by(7) {
-            let (x, y) = (i as u32 % size.0, i as u32 / size.0);
-            let w = data.world[i];
-            if w[3] < 0.0 || data.shadow[i][3] < 0.0 || x == 0 || y == 0 || x + 1 >= size.0 || y + 1 >= size.1 {
-                continue;
-            }
-            let one_face = (-1i32..=1).all(|dy| {
-                (-1i32..=1).all(|dx| {
-                    data.world[((y as i32 + dy) as u32 * size.0 + (x as i32 + dx) as u32) as usize][3] == w[3]
-                })
-            });
-            if !one_face {
-                continue;
-            }
-            let cpu = sigma_cpu(&setup, (x, y), Vec3::new(w[0], w[1], w[2]), w[3] as u32);
-            checked += 1;
-            agree += ((cpu - data.shadow[i][2]).abs() <= 0.05 * cpu) as u32;
-        }
+        let (checked, agree) = check_sigma(&data, &setup, 7);
         let stats = frame_stats(&data, 512);
         let ground: Vec<_> =
             data.world.iter().zip(&data.shadow).filter(|(w, s)| w[3] == 2.0 && w[1] < 0.01 && s[3] >= 0.0).collect();

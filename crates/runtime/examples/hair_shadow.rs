@@ -11,6 +11,9 @@
 
 use std::path::PathBuf;
 
+#[path = "common/png.rs"]
+mod png;
+
 use hikage_bundle::Settings;
 use hikage_runtime::glam::Vec3;
 use hikage_runtime::glam::camera::rh::proj::directx;
@@ -88,13 +91,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     let path = out.join("hair_shadow.png");
-    let file = std::io::BufWriter::new(std::fs::File::create(&path)?);
-    let encoder = image::codecs::png::PngEncoder::new_with_quality(
-        file,
-        image::codecs::png::CompressionType::Best,
-        image::codecs::png::FilterType::Adaptive,
-    );
-    image.write_with_encoder(encoder)?;
+    png::save(&image, &path)?;
     println!("wrote {}", path.display());
     Ok(())
 }

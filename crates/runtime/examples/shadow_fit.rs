@@ -14,13 +14,16 @@
 
 use std::path::PathBuf;
 
+#[path = "common/png.rs"]
+mod png;
+
 use hikage_runtime::glam::camera::rh::proj::directx;
 use hikage_runtime::glam::camera::rh::view::look_at_mat4;
 use hikage_runtime::glam::{Mat4, Vec3};
 use hikage_runtime::headless::Headless;
 use hikage_runtime::shadow_fit::{self, FitOptions, Light, Scratch};
 use hikage_runtime::shadow_scene::{
-    FACE_NORMALS, FrameData, FrameSetup, Scene, flips, frame_stats, render_frame, sigma_cpu,
+    FACE_NORMALS, FrameData, FrameSetup, Scene, check_sigma, flips, frame_stats, render_frame,
 };
 
 const RESOLUTION: u32 = 1024;
@@ -140,25 +143,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             if m == Method::Fixed {
                 fixed_sigma = st.sigma_median as f64;
             }
-            // σ on the CPU for every 61st visible pixel inside a face (its 3×3 block on one face).
-            for i in (0..data.world.len()).step_by(61) {
-                let (x, y) = (i as u32 % SIZE.0, i as u32 / SIZE.0);
-                let w = data.world[i];
-                if w[3] < 0.0 || data.shadow[i][3] < 0.0 || x == 0 || y == 0 || x + 1 >= SIZE.0 || y + 1 >= SIZE.1 {
-                    continue;
-                }
-                let same = (-1i32..=1).all(|dy| {
-                    (-1i32..=1).all(|dx| {
-                        data.world[((y as i32 + dy) as u32 * SIZE.0 + (x as i32 + dx) as u32) as usize][3] == w[3]
-                    })
-                });
-                if !same {
-                    continue;
-                }
-                let cpu = sigma_cpu(&setup, (x, y), Vec3::new(w[0], w[1], w[2]), w[3] as u32);
-                checked += 1;
-                agree += ((cpu - data.shadow[i][2]).abs() <= 0.05 * cpu.max(1e-6)) as usize;
-            }
+            // σ on the CPU for every 61st visible pixel inside a face.
+            let (c, a) = check_sigma(&data, &setup, 61);
+            (checked, agree) = (checked + c, agree + a);
             let gain = st.sigma_median as f64 / fixed_sigma.max(1e-9);
             let expected = scene.bounds.radius as f64 / r as f64;
             let wrong = flips(&reference, &data);
@@ -261,13 +248,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     let path = out.join("shadow_fit.png");
-    let file = std::io::BufWriter::new(std::fs::File::create(&path)?);
-    let encoder = image::codecs::png::PngEncoder::new_with_quality(
-        file,
-        image::codecs::png::CompressionType::Best,
-        image::codecs::png::FilterType::Adaptive,
-    );
-    image.write_with_encoder(encoder)?;
+    png::save(&image, &path)?;
     println!("\nwrote {}", path.display());
     Ok(())
 }

@@ -19,7 +19,10 @@ use glam::camera::rh::view::look_to_mat4;
 use glam::{Mat4, Vec3, Vec4};
 use hikage_bundle::MeshDesc;
 
-use crate::headless::Headless;
+use crate::headless::{
+    Headless, clear_attachment as attach, depth_attachment as depth_attach, depth_test as depth_state, plain_target,
+    render_pipeline,
+};
 
 /// WGSL of the passes (see the module docs).
 pub const HAIR_WGSL: &str = include_str!("shaders/hair.wgsl");
@@ -243,72 +246,6 @@ fn module(gpu: &Headless) -> wgpu::ShaderModule {
     })
 }
 
-fn pipeline(
-    gpu: &Headless,
-    module: &wgpu::ShaderModule,
-    (vs, fs): (&str, &str),
-    buffers: &[Option<wgpu::VertexBufferLayout>],
-    target: wgpu::ColorTargetState,
-    depth: Option<wgpu::DepthStencilState>,
-) -> wgpu::RenderPipeline {
-    gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some(fs),
-        layout: None,
-        vertex: wgpu::VertexState { module, entry_point: Some(vs), compilation_options: Default::default(), buffers },
-        primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-        depth_stencil: depth,
-        multisample: Default::default(),
-        fragment: Some(wgpu::FragmentState {
-            module,
-            entry_point: Some(fs),
-            compilation_options: Default::default(),
-            targets: &[Some(target)],
-        }),
-        multiview_mask: None,
-        cache: None,
-    })
-}
-
-fn texture(gpu: &Headless, size: (u32, u32), format: wgpu::TextureFormat, usage: wgpu::TextureUsages) -> wgpu::Texture {
-    gpu.device.create_texture(&wgpu::TextureDescriptor {
-        label: None,
-        size: wgpu::Extent3d { width: size.0, height: size.1, depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage,
-        view_formats: &[],
-    })
-}
-
-fn depth_state() -> wgpu::DepthStencilState {
-    wgpu::DepthStencilState {
-        format: wgpu::TextureFormat::Depth32Float,
-        depth_write_enabled: Some(true),
-        depth_compare: Some(wgpu::CompareFunction::Less),
-        stencil: Default::default(),
-        bias: Default::default(),
-    }
-}
-
-fn attach(view: &wgpu::TextureView, clear: wgpu::Color) -> Option<wgpu::RenderPassColorAttachment<'_>> {
-    Some(wgpu::RenderPassColorAttachment {
-        view,
-        depth_slice: None,
-        resolve_target: None,
-        ops: wgpu::Operations { load: wgpu::LoadOp::Clear(clear), store: wgpu::StoreOp::Store },
-    })
-}
-
-fn depth_attach(view: &wgpu::TextureView) -> Option<wgpu::RenderPassDepthStencilAttachment<'_>> {
-    Some(wgpu::RenderPassDepthStencilAttachment {
-        view,
-        depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
-        stencil_ops: None,
-    })
-}
-
 /// Renders the depth map and the opacity layers of `strips` drawn with `set`.
 pub fn render_opacity_maps(
     gpu: &Headless,
@@ -322,33 +259,33 @@ pub fn render_opacity_maps(
     let usage =
         wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC;
     let size = (resolution, resolution);
-    let depth = texture(gpu, size, wgpu::TextureFormat::R32Float, usage);
-    let layers = texture(gpu, size, wgpu::TextureFormat::Rgba16Float, usage);
-    let zbuf = texture(gpu, size, wgpu::TextureFormat::Depth32Float, wgpu::TextureUsages::RENDER_ATTACHMENT);
-    let plain = |format| wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL };
+    let depth = gpu.texture(size, wgpu::TextureFormat::R32Float, usage);
+    let layers = gpu.texture(size, wgpu::TextureFormat::Rgba16Float, usage);
+    let zbuf = gpu.texture(size, wgpu::TextureFormat::Depth32Float, wgpu::TextureUsages::RENDER_ATTACHMENT);
     let add = wgpu::BlendComponent {
         src_factor: wgpu::BlendFactor::One,
         dst_factor: wgpu::BlendFactor::One,
         operation: wgpu::BlendOperation::Add,
     };
-    let depth_pipe = pipeline(
-        gpu,
+    let device = &gpu.device;
+    let depth_pipe = render_pipeline(
+        device,
         &module,
         ("vs_light", "fs_depth"),
         &layouts,
-        plain(wgpu::TextureFormat::R32Float),
+        &[plain_target(wgpu::TextureFormat::R32Float)],
         Some(depth_state()),
     );
-    let layer_pipe = pipeline(
-        gpu,
+    let layer_pipe = render_pipeline(
+        device,
         &module,
         ("vs_light", "fs_opacity"),
         &layouts,
-        wgpu::ColorTargetState {
+        &[Some(wgpu::ColorTargetState {
             format: wgpu::TextureFormat::Rgba16Float,
             blend: Some(wgpu::BlendState { color: add, alpha: add }),
             write_mask: wgpu::ColorWrites::ALL,
-        },
+        })],
         None,
     );
     let frame = frame_bytes(light, Mat4::IDENTITY, Vec3::ZERO, set, resolution);
@@ -444,23 +381,18 @@ pub fn render_scene(
         step_mode: wgpu::VertexStepMode::Vertex,
         attributes: &wgpu::vertex_attr_array![0 => Float32x3],
     })];
-    let plain = |format| wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL };
     let rgba = wgpu::TextureFormat::Rgba8Unorm;
-    let hair_pipe = pipeline(gpu, &module, ("vs_hair", "fs_hair"), &layouts, plain(rgba), Some(depth_state()));
-    let ground_pipe =
-        pipeline(gpu, &module, ("vs_ground", "fs_ground"), &ground_layout, plain(rgba), Some(depth_state()));
-    let vis_pipe = pipeline(
-        gpu,
-        &module,
-        ("vs_ground", "fs_ground_visibility"),
-        &ground_layout,
-        plain(wgpu::TextureFormat::R32Float),
-        None,
-    );
+    let device = &gpu.device;
+    let pipe = |entries, layout: &[Option<wgpu::VertexBufferLayout>], format, depth| {
+        render_pipeline(device, &module, entries, layout, &[plain_target(format)], depth)
+    };
+    let hair_pipe = pipe(("vs_hair", "fs_hair"), &layouts, rgba, Some(depth_state()));
+    let ground_pipe = pipe(("vs_ground", "fs_ground"), &ground_layout, rgba, Some(depth_state()));
+    let vis_pipe = pipe(("vs_ground", "fs_ground_visibility"), &ground_layout, wgpu::TextureFormat::R32Float, None);
     let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
-    let color = texture(gpu, size, rgba, usage);
-    let zbuf = texture(gpu, size, wgpu::TextureFormat::Depth32Float, wgpu::TextureUsages::RENDER_ATTACHMENT);
-    let vis = texture(gpu, size, wgpu::TextureFormat::R32Float, usage);
+    let color = gpu.texture(size, rgba, usage);
+    let zbuf = gpu.texture(size, wgpu::TextureFormat::Depth32Float, wgpu::TextureUsages::RENDER_ATTACHMENT);
+    let vis = gpu.texture(size, wgpu::TextureFormat::R32Float, usage);
     let frame = frame_bytes(light, camera, eye, HairSet::Shading, maps.resolution);
     let top = frame_bytes(light, ground_camera, eye, HairSet::Shading, maps.resolution);
     let ubuf = gpu.buffer(frame.len() as u64, wgpu::BufferUsages::UNIFORM, Some(&frame));

@@ -9,7 +9,7 @@
 
 use glam::{Vec2, Vec3};
 
-use crate::headless::Headless;
+use crate::headless::{Headless, clear_attachment, plain_target, render_pipeline};
 use crate::horizon::{HorizonMap, horizon_shadow_lit};
 
 /// WGSL of the scene; prepend [`crate::horizon::HORIZON_WGSL`].
@@ -93,39 +93,8 @@ pub fn render(
         label: Some("horizon sphere"),
         source: wgpu::ShaderSource::Wgsl(format!("{}\n{}", crate::horizon::HORIZON_WGSL, SPHERE_WGSL).into()),
     });
-    let targets = [
-        Some(wgpu::ColorTargetState {
-            format: wgpu::TextureFormat::Rgba8Unorm,
-            blend: None,
-            write_mask: wgpu::ColorWrites::ALL,
-        }),
-        Some(wgpu::ColorTargetState {
-            format: wgpu::TextureFormat::R32Uint,
-            blend: None,
-            write_mask: wgpu::ColorWrites::ALL,
-        }),
-    ];
-    let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some("horizon sphere"),
-        layout: None,
-        vertex: wgpu::VertexState {
-            module: &module,
-            entry_point: Some("vs"),
-            compilation_options: Default::default(),
-            buffers: &[],
-        },
-        primitive: Default::default(),
-        depth_stencil: None,
-        multisample: Default::default(),
-        fragment: Some(wgpu::FragmentState {
-            module: &module,
-            entry_point: Some("fs"),
-            compilation_options: Default::default(),
-            targets: &targets,
-        }),
-        multiview_mask: None,
-        cache: None,
-    });
+    let targets = [plain_target(wgpu::TextureFormat::Rgba8Unorm), plain_target(wgpu::TextureFormat::R32Uint)];
+    let pipeline = render_pipeline(device, &module, ("vs", "fs"), &[], &targets, None);
     let kappa = if scene.corrected { scene.sphere_kappa } else { 0.0 };
     let uniform: Vec<f32> = vec![
         scene.light.x,
@@ -154,31 +123,14 @@ pub fn render(
             wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(heights) },
         ],
     });
-    let target = |format| {
-        device.create_texture(&wgpu::TextureDescriptor {
-            label: None,
-            size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 1 },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        })
-    };
+    let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
+    let target = |format| gpu.texture((size, size), format, usage);
     let color = target(wgpu::TextureFormat::Rgba8Unorm);
     let flags = target(wgpu::TextureFormat::R32Uint);
     let (cv, fv) = (color.create_view(&Default::default()), flags.create_view(&Default::default()));
     let mut enc = device.create_command_encoder(&Default::default());
     {
-        let attach = |view| {
-            Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
-            })
-        };
+        let attach = |view| clear_attachment(view, wgpu::Color::BLACK);
         let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("horizon sphere"),
             color_attachments: &[attach(&cv), attach(&fv)],

@@ -7,7 +7,7 @@
 use glam::Vec3;
 use hikage_bundle::relief::ReliefRay;
 
-use crate::headless::Headless;
+use crate::headless::{Headless, clear_attachment, plain_target, render_pipeline};
 use crate::relief::{ReliefMaps, Tracer};
 
 /// WGSL of the scene; prepend [`crate::relief::RELIEF_WGSL`].
@@ -128,43 +128,11 @@ pub fn render(
         source: wgpu::ShaderSource::Wgsl(format!("{}\n{}", crate::relief::RELIEF_WGSL, PLANE_WGSL).into()),
     });
     let targets = [
-        Some(wgpu::ColorTargetState {
-            format: wgpu::TextureFormat::Rgba8Unorm,
-            blend: None,
-            write_mask: wgpu::ColorWrites::ALL,
-        }),
-        Some(wgpu::ColorTargetState {
-            format: wgpu::TextureFormat::Rgba32Float,
-            blend: None,
-            write_mask: wgpu::ColorWrites::ALL,
-        }),
-        Some(wgpu::ColorTargetState {
-            format: wgpu::TextureFormat::Rgba32Float,
-            blend: None,
-            write_mask: wgpu::ColorWrites::ALL,
-        }),
+        plain_target(wgpu::TextureFormat::Rgba8Unorm),
+        plain_target(wgpu::TextureFormat::Rgba32Float),
+        plain_target(wgpu::TextureFormat::Rgba32Float),
     ];
-    let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some("relief plane"),
-        layout: None,
-        vertex: wgpu::VertexState {
-            module: &module,
-            entry_point: Some("vs"),
-            compilation_options: Default::default(),
-            buffers: &[],
-        },
-        primitive: Default::default(),
-        depth_stencil: None,
-        multisample: Default::default(),
-        fragment: Some(wgpu::FragmentState {
-            module: &module,
-            entry_point: Some("fs"),
-            compilation_options: Default::default(),
-            targets: &targets,
-        }),
-        multiview_mask: None,
-        cache: None,
-    });
+    let pipeline = render_pipeline(device, &module, ("vs", "fs"), &[], &targets, None);
     let params = relief_params(maps, tracer);
     let pbuf = gpu.buffer(params.len() as u64, wgpu::BufferUsages::UNIFORM, Some(&params));
     let (forward, right, up) = basis(view);
@@ -191,18 +159,8 @@ pub fn render(
         layout: &pipeline.get_bind_group_layout(1),
         entries: &[wgpu::BindGroupEntry { binding: 0, resource: sbuf.as_entire_binding() }],
     });
-    let target = |format| {
-        device.create_texture(&wgpu::TextureDescriptor {
-            label: None,
-            size: wgpu::Extent3d { width: view.width, height: view.height, depth_or_array_layers: 1 },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        })
-    };
+    let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
+    let target = |format| gpu.texture((view.width, view.height), format, usage);
     let color = target(wgpu::TextureFormat::Rgba8Unorm);
     let data = target(wgpu::TextureFormat::Rgba32Float);
     let shade = target(wgpu::TextureFormat::Rgba32Float);
@@ -210,14 +168,7 @@ pub fn render(
     let sv = shade.create_view(&Default::default());
     let mut enc = device.create_command_encoder(&Default::default());
     {
-        let attach = |view| {
-            Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
-            })
-        };
+        let attach = |view| clear_attachment(view, wgpu::Color::BLACK);
         let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("relief plane"),
             color_attachments: &[attach(&cv), attach(&dv), attach(&sv)],

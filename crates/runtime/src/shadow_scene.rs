@@ -7,7 +7,7 @@
 
 use glam::{Mat4, Vec3, Vec4};
 
-use crate::headless::Headless;
+use crate::headless::{Headless, clear_attachment, depth_attachment, depth_test, plain_target, render_pipeline};
 use crate::shadow_fit::{MeshRef, Sphere};
 
 /// WGSL of the two passes.
@@ -146,60 +146,19 @@ pub fn render_frame(gpu: &Headless, scene: &Scene, setup: &FrameSetup) -> FrameD
         step_mode: wgpu::VertexStepMode::Vertex,
         attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32],
     };
-    let texture = |w: u32, h: u32, format, usage| {
-        device.create_texture(&wgpu::TextureDescriptor {
-            label: None,
-            size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage,
-            view_formats: &[],
-        })
-    };
     let target = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
-    let map =
-        texture(resolution, resolution, wgpu::TextureFormat::R32Float, target | wgpu::TextureUsages::TEXTURE_BINDING);
-    let map_depth =
-        texture(resolution, resolution, wgpu::TextureFormat::Depth32Float, wgpu::TextureUsages::RENDER_ATTACHMENT);
-    let shadow = texture(width, height, wgpu::TextureFormat::Rgba32Float, target);
-    let world = texture(width, height, wgpu::TextureFormat::Rgba32Float, target);
-    let cam_depth = texture(width, height, wgpu::TextureFormat::Depth32Float, wgpu::TextureUsages::RENDER_ATTACHMENT);
-    let depth_state = wgpu::DepthStencilState {
-        format: wgpu::TextureFormat::Depth32Float,
-        depth_write_enabled: Some(true),
-        depth_compare: Some(wgpu::CompareFunction::Less),
-        stencil: Default::default(),
-        bias: Default::default(),
-    };
-    let pipeline = |vs: &str, fs: &str, formats: &[wgpu::TextureFormat]| {
-        let targets: Vec<_> = formats
-            .iter()
-            .map(|&format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL }))
-            .collect();
-        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("shadow scene"),
-            layout: None,
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some(vs),
-                compilation_options: Default::default(),
-                buffers: &[Some(layout.clone())],
-            },
-            // Both sides: boxes are closed, and the ground is seen from above only.
-            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-            depth_stencil: Some(depth_state.clone()),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some(fs),
-                compilation_options: Default::default(),
-                targets: &targets,
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
+    let depth_only = wgpu::TextureUsages::RENDER_ATTACHMENT;
+    let map_size = (resolution, resolution);
+    let map = gpu.texture(map_size, wgpu::TextureFormat::R32Float, target | wgpu::TextureUsages::TEXTURE_BINDING);
+    let map_depth = gpu.texture(map_size, wgpu::TextureFormat::Depth32Float, depth_only);
+    let shadow = gpu.texture((width, height), wgpu::TextureFormat::Rgba32Float, target);
+    let world = gpu.texture((width, height), wgpu::TextureFormat::Rgba32Float, target);
+    let cam_depth = gpu.texture((width, height), wgpu::TextureFormat::Depth32Float, depth_only);
+    // Both sides: boxes are closed, and the ground is seen from above only.
+    let buffers = [Some(layout)];
+    let pipeline = |vs, fs, formats: &[wgpu::TextureFormat]| {
+        let targets: Vec<_> = formats.iter().map(|&f| plain_target(f)).collect();
+        render_pipeline(device, &module, (vs, fs), &buffers, &targets, Some(depth_test()))
     };
     let light_pipe = pipeline("vs_light", "fs_light", &[wgpu::TextureFormat::R32Float]);
     let cam_pipe =
@@ -218,24 +177,8 @@ pub fn render_frame(gpu: &Headless, scene: &Scene, setup: &FrameSetup) -> FrameD
             wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&map_view) },
         ],
     });
-    let color = |view, clear: f64| {
-        Some(wgpu::RenderPassColorAttachment {
-            view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(wgpu::Color { r: clear, g: clear, b: clear, a: clear }),
-                store: wgpu::StoreOp::Store,
-            },
-        })
-    };
-    let depth = |view| {
-        Some(wgpu::RenderPassDepthStencilAttachment {
-            view,
-            depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
-            stencil_ops: None,
-        })
-    };
+    let color = |view, clear: f64| clear_attachment(view, wgpu::Color { r: clear, g: clear, b: clear, a: clear });
+    let depth = depth_attachment;
     let (md, sv, wv, cd) = (
         map_depth.create_view(&Default::default()),
         shadow.create_view(&Default::default()),
@@ -310,6 +253,30 @@ pub fn sigma_cpu(setup: &FrameSetup, (x, y): (u32, u32), world: Vec3, face: u32)
     let dx = texel(cx + 1.0, cy) - o;
     let dy = texel(cx, cy + 1.0) - o;
     (dx.x * dy.y - dx.y * dy.x).abs().sqrt()
+}
+
+/// σ recomputed on the CPU ([`sigma_cpu`]) at every `step`-th visible pixel whose 3×3
+/// neighbourhood lies on one face (derivatives there come from one plane): (pixels checked,
+/// pixels within 5% of the GPU's σ).
+pub fn check_sigma(data: &FrameData, setup: &FrameSetup, step: usize) -> (usize, usize) {
+    let (w, h) = setup.size;
+    let (mut checked, mut agree) = (0, 0);
+    for i in (0..data.world.len()).step_by(step.max(1)) {
+        let (x, y) = (i as u32 % w, i as u32 / w);
+        let p = data.world[i];
+        if p[3] < 0.0 || data.shadow[i][3] < 0.0 || x == 0 || y == 0 || x + 1 >= w || y + 1 >= h {
+            continue;
+        }
+        let one_face =
+            (y - 1..=y + 1).all(|yy| (x - 1..=x + 1).all(|xx| data.world[(yy * w + xx) as usize][3] == p[3]));
+        if !one_face {
+            continue;
+        }
+        let cpu = sigma_cpu(setup, (x, y), Vec3::new(p[0], p[1], p[2]), p[3] as u32);
+        checked += 1;
+        agree += ((cpu - data.shadow[i][2]).abs() <= 0.05 * cpu.max(1e-6)) as usize;
+    }
+    (checked, agree)
 }
 
 /// Figures of one frame: σ over visible pixels inside the shadow map (median, 10th
