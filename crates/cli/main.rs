@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::{Args, Parser, Subcommand, ValueEnum};
 use hikage_bake::BakeError;
 use hikage_bake::export::{ExportFormat, export_texture};
 use hikage_bake::horizon::HorizonFormat;
@@ -73,12 +73,8 @@ enum Command {
     Horizon {
         /// Heightfield image (PNG 8/16-bit or OpenEXR).
         input: PathBuf,
-        /// Bundle directory.
-        #[arg(long)]
-        out: PathBuf,
-        /// Asset id prefix (default: the input's file stem).
-        #[arg(long)]
-        id: Option<String>,
+        #[command(flatten)]
+        target: OneShot,
         /// Azimuths D (1–256); direction k has φ = 2πk/D.
         #[arg(long, default_value_t = 32)]
         directions: u32,
@@ -109,12 +105,6 @@ enum Command {
         /// Channel of the input image to take.
         #[arg(long)]
         channel: Option<String>,
-        /// Worker threads (default: one per core).
-        #[arg(long, short = 'j', value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
-        jobs: Option<u16>,
-        /// Bake even if unchanged; replace an unreadable bundle.
-        #[arg(long)]
-        force: bool,
     },
     /// Bake relief-mapping depth maps (one per hemisphere direction) and the max-mip pyramid of
     /// one heightfield into BUNDLE (assets `<id>.relief` and `<id>.maxmip` added or replaced).
@@ -122,12 +112,8 @@ enum Command {
     Relief {
         /// Heightfield image (PNG 8/16-bit or OpenEXR; samples in [0, 1], power-of-two sides).
         input: PathBuf,
-        /// Bundle directory.
-        #[arg(long)]
-        out: PathBuf,
-        /// Asset id prefix (default: the input's file stem).
-        #[arg(long)]
-        id: Option<String>,
+        #[command(flatten)]
+        target: OneShot,
         /// Rows of zenith angle θ (1–128); θ_i = (i + ½)·90°/N.
         #[arg(long, default_value_t = 32)]
         theta: u32,
@@ -147,12 +133,6 @@ enum Command {
         /// Channel of the input image to take.
         #[arg(long)]
         channel: Option<String>,
-        /// Worker threads (default: one per core).
-        #[arg(long, short = 'j', value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
-        jobs: Option<u16>,
-        /// Bake even if unchanged; replace an unreadable bundle.
-        #[arg(long)]
-        force: bool,
     },
     /// Bake hair strip meshes from a `.hair` file or OBJ polylines into BUNDLE (`<id>.strips`,
     /// and `<id>.ribbons` with --ribbons). Widths are full widths in the input's units.
@@ -160,12 +140,8 @@ enum Command {
     Strands {
         /// Cem Yuksel `.hair` file or Wavefront OBJ with `l` polylines.
         input: PathBuf,
-        /// Bundle directory.
-        #[arg(long)]
-        out: PathBuf,
-        /// Asset id prefix (default: the input's file stem).
-        #[arg(long)]
-        id: Option<String>,
+        #[command(flatten)]
+        target: OneShot,
         /// Opacity set width (default: shading width × 1.40/0.16, the paper's ratio).
         #[arg(long)]
         opacity_width: Option<f32>,
@@ -187,12 +163,6 @@ enum Command {
         /// Also bake a fixed-orientation ribbon mesh (minimum-twist frames).
         #[arg(long)]
         ribbons: bool,
-        /// Worker threads (default: one per core).
-        #[arg(long, short = 'j', value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
-        jobs: Option<u16>,
-        /// Bake even if unchanged; replace an unreadable bundle.
-        #[arg(long)]
-        force: bool,
     },
     /// Export a texture asset as OpenEXR (one layer per slice) or raw little-endian f32.
     #[command(after_help = EXIT_CODES)]
@@ -216,6 +186,23 @@ enum Command {
         #[arg(long)]
         channel: Option<String>,
     },
+}
+
+/// Where a one-shot bake goes and how it runs.
+#[derive(Args)]
+struct OneShot {
+    /// Bundle directory (created if missing; other assets are kept).
+    #[arg(long)]
+    out: PathBuf,
+    /// Asset id prefix (default: the input's file stem).
+    #[arg(long)]
+    id: Option<String>,
+    /// Worker threads (default: one per core).
+    #[arg(long, short = 'j', value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    jobs: Option<u16>,
+    /// Bake even if unchanged; replace an unreadable bundle.
+    #[arg(long)]
+    force: bool,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -299,8 +286,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
         },
         Command::Horizon {
             input,
-            out,
-            id,
+            target,
             directions,
             texel_size,
             height_scale,
@@ -311,11 +297,8 @@ fn run(cli: Cli) -> Result<(), Failure> {
             ao,
             near_field,
             channel,
-            jobs,
-            force,
         } => {
-            let id = id.unwrap_or_else(|| stem(&input));
-            let mut job = HorizonJob::new(&id, input);
+            let mut job = HorizonJob::new(&target.id_for(&input), input);
             job.channel = channel;
             job.texel_size = texel_size.unwrap_or((1.0, 1.0));
             job.height_scale = height_scale;
@@ -333,11 +316,10 @@ fn run(cli: Cli) -> Result<(), Failure> {
             };
             job.ao = ao;
             job.near_field = near_field;
-            one_shot(Job::Horizon(job), &out, force, jobs)
+            one_shot(Job::Horizon(job), &target)
         }
-        Command::Relief { input, out, id, theta, phi, size, depth_scale, format, channel, jobs, force } => {
-            let id = id.unwrap_or_else(|| stem(&input));
-            let mut job = ReliefJob::new(&id, input);
+        Command::Relief { input, target, theta, phi, size, depth_scale, format, channel } => {
+            let mut job = ReliefJob::new(&target.id_for(&input), input);
             job.channel = channel;
             job.theta = theta;
             job.phi = phi;
@@ -347,12 +329,11 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 ReliefFormatArg::R8 => ReliefFormat::R8Unorm,
                 ReliefFormatArg::R16f => ReliefFormat::R16Float,
             };
-            one_shot(Job::Relief(job), &out, force, jobs)
+            one_shot(Job::Relief(job), &target)
         }
         Command::Strands {
             input,
-            out,
-            id,
+            target,
             opacity_width,
             opacity_alpha,
             shading_width,
@@ -360,10 +341,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
             auto,
             taper,
             ribbons,
-            jobs,
-            force,
         } => {
-            let id = id.unwrap_or_else(|| stem(&input));
             let job = StrandsJob {
                 opacity_width,
                 opacity_alpha,
@@ -372,21 +350,26 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 auto,
                 taper,
                 ribbons,
-                ..StrandsJob::new(&id, input)
+                ..StrandsJob::new(&target.id_for(&input), input)
             };
-            one_shot(Job::Strands(job), &out, force, jobs)
+            one_shot(Job::Strands(job), &target)
         }
     }
 }
 
-/// The default asset id of a one-shot bake: the input's file stem.
-fn stem(input: &Path) -> String {
-    input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+impl OneShot {
+    /// The asset id prefix: `--id`, else the input's file stem.
+    fn id_for(&self, input: &Path) -> String {
+        self.id
+            .clone()
+            .unwrap_or_else(|| input.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default())
+    }
 }
 
-fn one_shot(job: Job, out: &Path, force: bool, jobs: Option<u16>) -> Result<(), Failure> {
+fn one_shot(job: Job, target: &OneShot) -> Result<(), Failure> {
+    let out = &target.out;
     let observer = progress::Bars::new();
-    let options = RunOptions { force, threads: jobs.map(usize::from), observer: &observer };
+    let options = RunOptions { force: target.force, threads: target.jobs.map(usize::from), observer: &observer };
     let report =
         run_one_job(&job, out, &options).with_context(|| format!("baking `{}` into {}", job.id(), out.display()));
     observer.finish();
