@@ -76,8 +76,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (k, (name, strips, set, (width, alpha))) in variants.into_iter().enumerate() {
         let maps = render_opacity_maps(&gpu, strips, &light, set, RESOLUTION)?;
         // The camera always draws the thin shading set.
-        let (rgba, _) = render_scene(&gpu, &paper, &maps, &light, (camera, eye), ground, top, (w, h))?;
-        let (_, vis) = render_scene(&gpu, &paper, &maps, &light, (camera, eye), ground, top, (g, g))?;
+        let (rgba, vis) = render_scene(&gpu, &paper, &maps, &light, (camera, eye), ground, top, ((w, h), (g, g)))?;
         let hf = high_frequency_energy(&vis, (g, g));
         let shadowed: Vec<f32> = vis.iter().copied().filter(|&v| v < 0.98).collect();
         let dark = shadowed.iter().map(|v| 1.0 - v).sum::<f32>() / shadowed.len().max(1) as f32;

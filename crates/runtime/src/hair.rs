@@ -362,7 +362,8 @@ fn half_to_f32(h: u16) -> f32 {
 
 /// A camera view of the hair (shading set, Kajiya-Kay) over a ground quad, both shadowed from
 /// `maps`; and the ground's visibility seen by `ground_camera` (R32Float), for the aliasing
-/// figure. Returns (RGBA8 image, visibility image).
+/// figure, drawn once each at their own sizes `(image, ground)`. Returns (RGBA8 image, visibility
+/// image).
 #[allow(clippy::too_many_arguments)]
 pub fn render_scene(
     gpu: &Headless,
@@ -372,7 +373,7 @@ pub fn render_scene(
     (camera, eye): (Mat4, Vec3),
     ground: [Vec3; 4],
     ground_camera: Mat4,
-    size: (u32, u32),
+    (size, ground_size): ((u32, u32), (u32, u32)),
 ) -> Result<(Vec<u8>, Vec<f32>), String> {
     let module = module(gpu);
     let layouts: Vec<_> = GpuStrips::layouts().into_iter().map(Some).collect();
@@ -392,7 +393,7 @@ pub fn render_scene(
     let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
     let color = gpu.texture(size, rgba, usage);
     let zbuf = gpu.texture(size, wgpu::TextureFormat::Depth32Float, wgpu::TextureUsages::RENDER_ATTACHMENT);
-    let vis = gpu.texture(size, wgpu::TextureFormat::R32Float, usage);
+    let vis = gpu.texture(ground_size, wgpu::TextureFormat::R32Float, usage);
     let frame = frame_bytes(light, camera, eye, HairSet::Shading, maps.resolution);
     let top = frame_bytes(light, ground_camera, eye, HairSet::Shading, maps.resolution);
     let ubuf = gpu.buffer(frame.len() as u64, wgpu::BufferUsages::UNIFORM, Some(&frame));

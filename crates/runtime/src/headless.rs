@@ -143,6 +143,10 @@ impl Headless {
     }
 }
 
+/// WGSL of a vertex stage `vs` drawing one triangle over the whole target (3 vertices, no
+/// buffers), for scenes whose fragment stage computes each pixel's ray.
+pub const FULLSCREEN_WGSL: &str = include_str!("shaders/fullscreen.wgsl");
+
 /// A colour attachment cleared to `clear` and stored.
 pub fn clear_attachment(view: &wgpu::TextureView, clear: wgpu::Color) -> Option<wgpu::RenderPassColorAttachment<'_>> {
     Some(wgpu::RenderPassColorAttachment {

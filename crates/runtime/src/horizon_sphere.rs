@@ -12,7 +12,8 @@ use glam::{Vec2, Vec3};
 use crate::headless::{Headless, clear_attachment, plain_target, render_pipeline};
 use crate::horizon::{HorizonMap, horizon_shadow_lit};
 
-/// WGSL of the scene; prepend [`crate::horizon::HORIZON_WGSL`].
+/// WGSL of the scene; prepend [`crate::horizon::HORIZON_WGSL`] and append
+/// [`crate::headless::FULLSCREEN_WGSL`].
 pub const SPHERE_WGSL: &str = include_str!("shaders/horizon_sphere.wgsl");
 
 /// One view of the scene.
@@ -91,7 +92,9 @@ pub fn render(
     let size = scene.size;
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("horizon sphere"),
-        source: wgpu::ShaderSource::Wgsl(format!("{}\n{}", crate::horizon::HORIZON_WGSL, SPHERE_WGSL).into()),
+        source: wgpu::ShaderSource::Wgsl(
+            format!("{}\n{}\n{}", crate::horizon::HORIZON_WGSL, SPHERE_WGSL, crate::headless::FULLSCREEN_WGSL).into(),
+        ),
     });
     let targets = [plain_target(wgpu::TextureFormat::Rgba8Unorm), plain_target(wgpu::TextureFormat::R32Uint)];
     let pipeline = render_pipeline(device, &module, ("vs", "fs"), &[], &targets, None);

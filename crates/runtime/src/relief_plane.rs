@@ -10,7 +10,8 @@ use hikage_bundle::relief::ReliefRay;
 use crate::headless::{Headless, clear_attachment, plain_target, render_pipeline};
 use crate::relief::{ReliefMaps, Tracer};
 
-/// WGSL of the scene; prepend [`crate::relief::RELIEF_WGSL`].
+/// WGSL of the scene; prepend [`crate::relief::RELIEF_WGSL`] and append
+/// [`crate::headless::FULLSCREEN_WGSL`].
 pub const PLANE_WGSL: &str = include_str!("shaders/relief_plane.wgsl");
 
 /// One view of the relief quad.
@@ -125,7 +126,9 @@ pub fn render(
     let device = &gpu.device;
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("relief plane"),
-        source: wgpu::ShaderSource::Wgsl(format!("{}\n{}", crate::relief::RELIEF_WGSL, PLANE_WGSL).into()),
+        source: wgpu::ShaderSource::Wgsl(
+            format!("{}\n{}\n{}", crate::relief::RELIEF_WGSL, PLANE_WGSL, crate::headless::FULLSCREEN_WGSL).into(),
+        ),
     });
     let targets = [
         plain_target(wgpu::TextureFormat::Rgba8Unorm),

@@ -23,12 +23,6 @@ struct Out {
     @location(1) flag: u32,  // 0 shadowed, 1 lit, 2 background
 }
 
-@vertex
-fn vs(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
-    let p = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
-    return vec4<f32>(p * 2.0 - 1.0, 0.0, 1.0);
-}
-
 @fragment
 fn fs(@builtin(position) pos: vec4<f32>) -> Out {
     var out: Out;

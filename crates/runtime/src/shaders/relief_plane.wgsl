@@ -25,12 +25,6 @@ struct PlaneOut {
     @location(2) shade: vec4<f32>, // lit (0/1), ambient occlusion (open share), 0, 0
 }
 
-@vertex
-fn vs(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
-    let p = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
-    return vec4<f32>(p * 2.0 - 1.0, 0.0, 1.0);
-}
-
 @fragment
 fn fs(@builtin(position) pos: vec4<f32>) -> PlaneOut {
     var out: PlaneOut;
