@@ -2,21 +2,49 @@
 //! per step and `m ∈ [-1, 1]` rows, on a transposed and/or mirrored copy of the heightfield.
 
 /// A heightfield in world height units (`height_scale × sample`; the offset cancels in every
-/// slope), row-major.
+/// slope), in canonical orientation, stored with `pad` extra rows above and below and `pad`
+/// extra columns on the right so the near-field stencil never tests an edge. The padding holds
+/// the torus continuation (wrap) or [`OUTSIDE`](super::near::OUTSIDE) (clamp). It is the baker's
+/// only copy of the heights.
 #[derive(Clone, Debug)]
 pub(crate) struct Grid {
     pub w: usize,
     pub h: usize,
-    pub data: Vec<f32>,
     /// World units per texel along columns and rows of this grid.
     pub sx: f64,
     pub sy: f64,
+    /// Padding rows above and below, and columns on the right.
+    pub pad: usize,
+    /// Row length of `data` (`w + pad`).
+    pub stride: usize,
+    data: Vec<f32>,
 }
 
 impl Grid {
-    #[inline]
+    /// Index in the storage of map texel (`row`, `col`).
+    #[inline(always)]
+    pub fn index(&self, row: usize, col: usize) -> usize {
+        (row + self.pad) * self.stride + col
+    }
+
+    /// Height of map texel (`row`, `col`).
+    #[inline(always)]
     pub fn at(&self, row: usize, col: usize) -> f32 {
-        self.data[row * self.w + col]
+        self.data[self.index(row, col)]
+    }
+
+    /// The storage (map and padding); see [`index`](Self::index).
+    #[inline(always)]
+    pub fn data(&self) -> &[f32] {
+        &self.data
+    }
+
+    /// `len` heights of padded row `r` (`-pad ≤ r < h + pad`) from column `col`
+    /// (`col + len ≤ w + pad`).
+    #[inline(always)]
+    pub fn padded_row(&self, r: isize, col: usize, len: usize) -> &[f32] {
+        let start = (r + self.pad as isize) as usize * self.stride + col;
+        &self.data[start..start + len]
     }
 }
 
@@ -50,16 +78,34 @@ impl Orientation {
         }
     }
 
-    /// Builds the canonical grid of a `width`×`height` field.
-    pub fn grid(self, width: usize, height: usize, world: &[f32], sx: f64, sy: f64) -> Grid {
+    /// Builds the canonical grid of a `width`×`height` field of `samples` × `scale`, padded by
+    /// `pad` (see [`Grid`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn grid(
+        self,
+        (width, height): (usize, usize),
+        samples: &[f32],
+        scale: f32,
+        (sx, sy): (f64, f64),
+        pad: usize,
+        wrap: bool,
+    ) -> Grid {
         let (w, h, gsx, gsy) = if self.transpose { (height, width, sy, sx) } else { (width, height, sx, sy) };
-        let mut data = vec![0.0; w * h];
-        for row in 0..h {
-            for col in 0..w {
-                data[row * w + col] = world[self.original(width, height, col, row)];
+        let stride = w + pad;
+        let mut data = vec![super::near::OUTSIDE; stride * (h + 2 * pad)];
+        for (r, out) in data.chunks_exact_mut(stride).enumerate() {
+            let row = r as isize - pad as isize;
+            if !(0..h as isize).contains(&row) && !wrap {
+                continue;
+            }
+            let row = row.rem_euclid(h as isize) as usize;
+            for (c, o) in out.iter_mut().enumerate() {
+                if c < w || wrap {
+                    *o = samples[self.original(width, height, c % w, row)] * scale;
+                }
             }
         }
-        Grid { w, h, data, sx: gsx, sy: gsy }
+        Grid { w, h, sx: gsx, sy: gsy, pad, stride, data }
     }
 
     /// Index in the original row-major field of canonical `(col, row)`.

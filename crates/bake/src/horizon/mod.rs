@@ -8,8 +8,16 @@
 //! Design, chosen to meet the accuracy gates on rough terrain at line-sweep speed:
 //! - near field ([`near`]): the first `near_field` texels of every ray exactly, at every
 //!   grid-line crossing, as a vectorised stencil over whole rows;
-//! - far field ([`sweep`]): the rest from a line sweep with convex-hull stacks, queried by a
-//!   tangent from the texel's own height, lerped between the two lines around the texel.
+//! - far field ([`sweep`]): the rest from a line sweep with convex-hull stacks, each of the two
+//!   lines around a texel queried by a tangent from the texel's own height; the texel's own ray
+//!   is then sampled exactly around the two tangent columns ([`steps`]), so a far horizon is
+//!   always a real sample. On axis and diagonal directions the line through a texel is its ray
+//!   and the tangent is already exact.
+//!
+//! The near field is encoded into the output first; the sweep finishes each texel as soon as
+//! both of its lines have answered and overwrites the texel when the far field is steeper. So
+//! the working memory is one padded, oriented copy of the heights ([`grid`]) plus `O(W)` per
+//! thread (8-bit output adds a half-float slope per texel of the direction in flight).
 //!
 //! Edges: `Wrap` continues rays on the torus (tileable bump maps) for one map length along the
 //! ray's major axis unless `max_distance` is set; `Clamp` stops rays at the map edge. A ray with
@@ -31,14 +39,13 @@ use serde::{Deserialize, Serialize};
 
 use crate::heightfield::Heightfield;
 use grid::{Grid, Orientation};
-use near::Padded;
 
 /// Slope stored for a ray that has no sample (clamp mode, at the edge looking out). It is the
 /// most negative half float, so it survives every storage format (rg8 stores β = −90°).
 pub const OPEN_SKY_SLOPE: f32 = -65504.0;
 
 /// Version of the horizon baker; part of the input hash.
-pub const ALGORITHM_VERSION: u32 = 1;
+pub const ALGORITHM_VERSION: u32 = 2;
 
 /// What happens to rays at the map edge (the bundle's [`hikage_bundle::EdgeMode`]).
 pub use hikage_bundle::EdgeMode as Edge;
@@ -132,7 +139,6 @@ pub fn bake(
 ) -> Result<HorizonTexture, String> {
     settings.check()?;
     let (w, h, d) = (hf.width as usize, hf.height as usize, settings.directions as usize);
-    let world: Vec<f32> = hf.samples.iter().map(|s| s * hf.height_scale).collect();
     let (sx, sy) = (hf.texel_size.0 as f64, hf.texel_size.1 as f64);
     let format = settings.format;
     let texel_bytes = format.texture_format().texel_bytes();
@@ -154,15 +160,14 @@ pub fn bake(
         if dirs.is_empty() {
             continue;
         }
-        let grid = orientation.grid(w, h, &world, sx, sy);
         let pad = settings.near_field as usize + 2;
-        let padded = Padded::new(&grid, pad, settings.edge == Edge::Wrap);
+        let grid = orientation.grid((w, h), &hf.samples, hf.height_scale, (sx, sy), pad, settings.edge == Edge::Wrap);
         let slices: Vec<(usize, &mut [u8])> =
             bytes.chunks_mut(w * h * texel_bytes).enumerate().filter(|(k, _)| dirs.contains(k)).collect();
         slices.into_par_iter().for_each(|(k, slice)| {
             let phi = std::f64::consts::TAU * k as f64 / d as f64;
             let (_, m) = Orientation::for_azimuth(phi);
-            direction(&grid, &padded, orientation, (w, h), m, settings, format, distance_scale, slice);
+            direction(&grid, orientation, (w, h), m, settings, format, distance_scale, slice);
             progress(done.fetch_add(1, Ordering::Relaxed) + 1, d as u64);
         });
     }
@@ -180,12 +185,11 @@ pub fn bake(
     Ok(HorizonTexture { texture: TextureData { desc, levels: vec![bytes] }, distance_scale })
 }
 
-/// One direction: near field per row, far field by sweep, combined and encoded into `out`
-/// (the direction's slice, original layout).
+/// One direction, encoded into `out` (the direction's slice, original layout): first the near
+/// field per row, then the far field, which replaces a texel's value when it is steeper.
 #[allow(clippy::too_many_arguments)]
 fn direction(
     g: &Grid,
-    padded: &Padded,
     orientation: Orientation,
     (width, height): (usize, usize),
     m: f64,
@@ -210,57 +214,44 @@ fn direction(
     let wrap = settings.edge == Edge::Wrap;
     let cols = g.w + reach.map_or(0, |r| r.ceil() as usize) + 1;
     let steps = steps::Steps::new(m, step_len, cols);
-    let line = sweep::Line { steps: &steps, near: near_cols, reach: reach.map(|r| (r + 1e-9).floor() as usize), wrap };
-    let far = sweep::far_field(g, &line);
     let near_f = near_cols as f64;
     let end = reach.unwrap_or(f64::INFINITY);
-
     let texel_bytes = format.texture_format().texel_bytes();
+    let at = |col: usize, row: usize| orientation.original(width, height, col, row) * texel_bytes;
+
+    // A clamped ray leaving through a row edge within EXIT_TRACE columns is traced exactly: the
+    // lines around such a texel leave the map at other columns than its ray.
+    let exit = |row: usize| match (wrap, m) {
+        (false, m) if m > 0.0 => (g.h - 1 - row) as f64 / m,
+        (false, m) if m < 0.0 => row as f64 / -m,
+        _ => f64::INFINITY,
+    };
+    let traced = |exit: f64, col: usize| exit <= EXIT_TRACE && exit < (g.w - 1 - col) as f64;
+    let steeper = |best: &mut (f32, f32), c: Option<(f32, f32)>| {
+        if let Some((s, t)) = c {
+            if s > best.0 {
+                *best = (s, t);
+            }
+        }
+    };
+
+    // Near field, and the exact traces that stand in for the far field. An 8-bit slope is too
+    // coarse to compare the far field with, so those keep the near-field slope in half precision.
+    let mut near_half = vec![0u16; if format == HorizonFormat::Rg8Unorm { g.w * g.h } else { 0 }];
     let mut best_s = vec![0.0f32; g.w];
     let mut best_t = vec![0.0f32; g.w];
     for row in 0..g.h {
-        near::row(g, padded, &taps, row, &mut best_s, &mut best_t);
-        // A clamped ray leaving through a row edge within EXIT_TRACE columns is traced exactly.
-        let exit = match (wrap, m) {
-            (false, m) if m > 0.0 => (g.h - 1 - row) as f64 / m,
-            (false, m) if m < 0.0 => row as f64 / -m,
-            _ => f64::INFINITY,
-        };
+        near::row(g, &taps, row, &mut best_s, &mut best_t);
+        let exit = exit(row);
         for col in 0..g.w {
-            let idx = row * g.w + col;
             let mut best = (best_s[col], best_t[col]);
-            let mut take = |c: Option<(f32, f32)>| {
-                if let Some((s, t)) = c {
-                    if s > best.0 {
-                        best = (s, t);
-                    }
-                }
-            };
             if end > near_f {
                 let trace = |lo: f64, hi: f64| steps.trace(g, wrap, row, col, lo, hi);
-                if exit <= EXIT_TRACE && exit < (g.w - 1 - col) as f64 {
-                    take(trace(near_f, end.min(exit)));
-                } else {
-                    // Around each line's tangent column, the texel's own ray, exactly.
-                    let [a, b] = far.candidates[idx];
-                    let (lo, hi) = match (a, b) {
-                        (0, 0) => (0, 0),
-                        (0, c) | (c, 0) => (c, c),
-                        (a, b) => (a.min(b), a.max(b)),
-                    };
-                    if hi > 0 {
-                        if hi - lo <= 3 {
-                            take(trace((lo as f64 - 2.0).max(near_f), (hi as f64 + 1.0).min(end)));
-                        } else {
-                            for c in [lo, hi] {
-                                take(trace((c as f64 - 2.0).max(near_f), (c as f64 + 1.0).min(end)));
-                            }
-                        }
-                    }
+                if traced(exit, col) {
+                    steeper(&mut best, trace(near_f, end.min(exit)));
+                } else if end.is_finite() && end.fract() > 0.0 {
                     // Row crossings past the last whole column of a fractional reach.
-                    if end.is_finite() && end.fract() > 0.0 {
-                        take(trace(end.floor().max(near_f), end));
-                    }
+                    steeper(&mut best, trace(end.floor().max(near_f), end));
                 }
             }
             let (mut s, mut t) = best;
@@ -268,10 +259,66 @@ fn direction(
                 s = OPEN_SKY_SLOPE;
                 t = 0.0;
             }
-            let o = orientation.original(width, height, col, row) * texel_bytes;
+            let o = at(col, row);
             encode(format, s, t, distance_scale, &mut out[o..o + texel_bytes]);
+            if let Some(h) = near_half.get_mut(row * g.w + col) {
+                *h = half::f16::from_f32(s).to_bits();
+            }
         }
     }
+    if end <= near_f {
+        return;
+    }
+
+    // Far field: around each line's tangent column, the texel's own ray, exactly.
+    let line = sweep::Line { steps: &steps, near: near_cols, reach: reach.map(|r| (r + 1e-9).floor() as usize), wrap };
+    // Axis and diagonal directions: every crossing of a ray is a column crossing and the line
+    // through a texel is its ray, so the hull's tangent is already the exact answer.
+    let exact_lines = m == 0.0 || m.abs() == 1.0;
+    let end_cols = if end.is_finite() { end.floor() as usize } else { usize::MAX };
+    sweep::far_field(g, &line, &mut |row, col, hits| {
+        if traced(exit(row), col) {
+            return;
+        }
+        let mut best = (f32::NEG_INFINITY, 0.0);
+        if exact_lines {
+            if let [Some(hit), None] = hits {
+                steeper(&mut best, steps.slope((hit.rise, hit.run)));
+            }
+        } else {
+            let run = |h: Option<sweep::Hit>| h.map_or(0, |h| h.run as u32);
+            let (lo, hi) = match (run(hits[0]), run(hits[1])) {
+                (0, 0) => return,
+                (0, c) | (c, 0) => (c, c),
+                (a, b) => (a.min(b), a.max(b)),
+            };
+            // Columns (c - 2, c + 1] around each candidate c, within (near field, reach].
+            let window = |lo: u32, hi: u32| {
+                let lo = (lo as usize).saturating_sub(2).max(near_cols);
+                let hi = (hi as usize + 1).min(end_cols);
+                steps.window(g, wrap, row, col, lo, hi)
+            };
+            if hi - lo <= 3 {
+                steeper(&mut best, window(lo, hi));
+            } else {
+                for c in [lo, hi] {
+                    steeper(&mut best, window(c, c));
+                }
+            }
+        }
+        let o = at(col, row);
+        let texel = &mut out[o..o + texel_bytes];
+        // Rounding is monotonic, so comparing with the near-field slope as stored in half (or
+        // full) precision picks the same slope as comparing before rounding.
+        let stored = match format {
+            HorizonFormat::Rg8Unorm => half::f16::from_bits(near_half[row * g.w + col]).to_f32(),
+            HorizonFormat::Rg16Float => half::f16::from_le_bytes([texel[0], texel[1]]).to_f32(),
+            HorizonFormat::Rg32Float => f32::from_le_bytes([texel[0], texel[1], texel[2], texel[3]]),
+        };
+        if best.0 > stored {
+            encode(format, best.0, best.1, distance_scale, texel);
+        }
+    });
 }
 
 /// Columns within which a ray leaving a clamped map through a row edge is traced exactly: there

@@ -14,41 +14,6 @@ use super::grid::Grid;
 /// `a + 0 · (OUTSIDE - a)` stays `a`.
 pub(crate) const OUTSIDE: f32 = -1.0e30;
 
-/// The canonical grid with `pad` rows above and below and `pad` columns on the right, filled
-/// by wrapping (torus) or with [`OUTSIDE`] (clamp).
-pub(crate) struct Padded {
-    pub pad: usize,
-    pub stride: usize,
-    pub data: Vec<f32>,
-}
-
-impl Padded {
-    pub fn new(g: &Grid, pad: usize, wrap: bool) -> Padded {
-        let stride = g.w + pad;
-        let rows = g.h + 2 * pad;
-        let mut data = vec![OUTSIDE; stride * rows];
-        for r in 0..rows {
-            let src_r = r as isize - pad as isize;
-            for c in 0..stride {
-                let inside = (0..g.h as isize).contains(&src_r) && c < g.w;
-                if inside {
-                    data[r * stride + c] = g.at(src_r as usize, c);
-                } else if wrap {
-                    let rr = src_r.rem_euclid(g.h as isize) as usize;
-                    data[r * stride + c] = g.at(rr, c % g.w);
-                }
-            }
-        }
-        Padded { pad, stride, data }
-    }
-
-    #[inline]
-    fn row(&self, r: isize, col: usize, len: usize) -> &[f32] {
-        let start = (r + self.pad as isize) as usize * self.stride + col;
-        &self.data[start..start + len]
-    }
-}
-
 /// One crossing of the stencil: `lerp(A, B, f)` with `A` at (row + `ra`, col + `ca`) and `B` at
 /// (row + `rb`, col + `cb`), at world distance `t`.
 #[derive(Clone, Copy, Debug)]
@@ -94,33 +59,33 @@ pub(crate) fn stencil(m: f64, step_len: f64, reach: f64) -> Vec<Tap> {
 
 /// Applies the stencil to canonical row `row`: `best_s`/`best_t` receive, per texel, the
 /// greatest slope over the taps and the distance where it occurs.
-pub(crate) fn row(g: &Grid, p: &Padded, taps: &[Tap], row: usize, best_s: &mut [f32], best_t: &mut [f32]) {
+pub(crate) fn row(g: &Grid, taps: &[Tap], row: usize, best_s: &mut [f32], best_t: &mut [f32]) {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2, checked just above.
-            unsafe { row_avx2(g, p, taps, row, best_s, best_t) };
+            unsafe { row_avx2(g, taps, row, best_s, best_t) };
             return;
         }
     }
-    row_generic(g, p, taps, row, best_s, best_t);
+    row_generic(g, taps, row, best_s, best_t);
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn row_avx2(g: &Grid, p: &Padded, taps: &[Tap], row: usize, best_s: &mut [f32], best_t: &mut [f32]) {
-    row_generic(g, p, taps, row, best_s, best_t);
+unsafe fn row_avx2(g: &Grid, taps: &[Tap], row: usize, best_s: &mut [f32], best_t: &mut [f32]) {
+    row_generic(g, taps, row, best_s, best_t);
 }
 
 #[inline(always)]
-fn row_generic(g: &Grid, p: &Padded, taps: &[Tap], row: usize, best_s: &mut [f32], best_t: &mut [f32]) {
+fn row_generic(g: &Grid, taps: &[Tap], row: usize, best_s: &mut [f32], best_t: &mut [f32]) {
     let w = g.w;
-    let h0 = &g.data[row * w..(row + 1) * w];
+    let h0 = g.padded_row(row as isize, 0, w);
     best_s.fill(f32::NEG_INFINITY);
     best_t.fill(0.0);
     for tap in taps {
-        let a = p.row(row as isize + tap.ra, tap.ca, w);
-        let b = p.row(row as isize + tap.rb, tap.cb, w);
+        let a = g.padded_row(row as isize + tap.ra, tap.ca, w);
+        let b = g.padded_row(row as isize + tap.rb, tap.cb, w);
         let (f, t, inv_t) = (tap.f, tap.t, 1.0 / tap.t);
         for ((((bs, bt), &o), &x), &y) in best_s.iter_mut().zip(best_t.iter_mut()).zip(h0).zip(a).zip(b) {
             let v = (x + f * (y - x) - o) * inv_t;

@@ -22,6 +22,9 @@ pub(crate) struct Steps {
     pub row_du: Vec<f64>,
     pub row_c: Vec<i32>,
     pub row_f: Vec<f32>,
+    /// Per column displacement `du`: the number of row crossings at or before it, so the row
+    /// crossings in `(lo, hi]` are `col_dv[lo] + 1 ..= col_dv[hi]`.
+    pub col_dv: Vec<u32>,
 }
 
 impl Steps {
@@ -47,7 +50,15 @@ impl Steps {
             }
         }
         row_du.push(f64::INFINITY);
-        Steps { m, step_len, col_r, col_f, row_du, row_c, row_f }
+        let mut col_dv = Vec::with_capacity(cols + 1);
+        let mut dv = 0usize;
+        for du in 0..=cols {
+            while row_du[dv + 1] <= du as f64 + 1e-9 {
+                dv += 1;
+            }
+            col_dv.push(dv as u32);
+        }
+        Steps { m, step_len, col_r, col_f, row_du, row_c, row_f, col_dv }
     }
 
     /// Traces the ray from canonical texel (`row`, `col`) exactly over column displacements
@@ -55,8 +66,113 @@ impl Steps {
     /// clamped map). Returns the steepest `(tan β, d)`, or `None` when no crossing is on the map.
     #[inline]
     pub fn trace(&self, g: &Grid, wrap: bool, row: usize, col: usize, lo: f64, hi: f64) -> Option<(f32, f32)> {
+        if lo >= hi {
+            return None;
+        }
+        let last = (hi + 1e-9).min((self.col_r.len() - 1) as f64) as usize;
+        let first = (super::near::floor_i(lo) + 1).max(1) as usize;
+        let span = if hi <= last as f64 + 1.0 { self.padded_span(g, row, col, lo, last) } else { None };
+        let best = match span {
+            Some(base) => {
+                // Row crossings in (lo, hi]: from the table of whole columns, then the fractions.
+                let mut d0 = self.col_dv[lo.max(0.0) as usize] as usize + 1;
+                while self.row_du[d0] <= lo + 1e-9 {
+                    d0 += 1;
+                }
+                let mut d1 = self.col_dv[last] as usize;
+                while self.row_du[d1 + 1] <= hi + 1e-9 {
+                    d1 += 1;
+                }
+                self.trace_padded(g, base, (first, last), (d0, d1))
+            }
+            None => self.trace_anywhere(g, wrap, row, col, lo, hi, first, last),
+        };
+        self.slope(best)
+    }
+
+    /// [`trace`](Self::trace) over whole column displacements `(lo, hi]`, the window around a
+    /// far-field candidate: the same crossings in the same order, with the row crossings read
+    /// off the table of whole columns.
+    #[inline]
+    pub fn window(&self, g: &Grid, wrap: bool, row: usize, col: usize, lo: usize, hi: usize) -> Option<(f32, f32)> {
+        match self.padded_span(g, row, col, lo as f64, hi).filter(|_| lo < hi && hi < self.col_r.len()) {
+            Some(base) => {
+                let rows = (self.col_dv[lo] as usize + 1, self.col_dv[hi] as usize);
+                self.slope(self.trace_padded(g, base, (lo + 1, hi), rows))
+            }
+            None => self.trace(g, wrap, row, col, lo as f64, hi as f64),
+        }
+    }
+
+    /// `(tan β, d)` of the best (rise, run in columns), `None` when there was no crossing.
+    #[inline(always)]
+    pub fn slope(&self, (rise, run): (f32, f32)) -> Option<(f32, f32)> {
+        (rise > f32::NEG_INFINITY).then(|| {
+            let t = run as f64 * self.step_len;
+            ((rise as f64 / t) as f32, t as f32)
+        })
+    }
+
+    /// The storage index of texel (`row`, `col`) when every crossing of its ray over
+    /// `(lo, last + 1)` reads inside the padded grid, whose padding holds exactly what a wrapped
+    /// or clamped read gives; `None` otherwise.
+    #[inline(always)]
+    fn padded_span(&self, g: &Grid, row: usize, col: usize, lo: f64, last: usize) -> Option<i64> {
+        let last = last.min(self.col_r.len() - 1);
+        let f0 = (lo.max(0.0) as usize).min(last);
+        let (ra, rb) = (self.col_r[f0] as i64, self.col_r[last] as i64);
+        let (r_lo, r_hi) = (row as i64 + ra.min(rb) - 2, row as i64 + ra.max(rb) + 3);
+        let fits = r_lo >= -(g.pad as i64) && r_hi < (g.h + g.pad) as i64 && col + last + 2 < g.stride;
+        fits.then(|| g.index(row, col) as i64)
+    }
+
+    /// Column crossings `first..=last` and row crossings `d0..=d1`, read straight from the
+    /// padded storage (see [`padded_span`](Self::padded_span)): no wrapping or edge tests, and
+    /// selects instead of branches. Best as (rise, run in columns).
+    #[inline(always)]
+    fn trace_padded(&self, g: &Grid, base: i64, (first, last): (usize, usize), (d0, d1): (usize, usize)) -> (f32, f32) {
+        let (data, stride) = (g.data(), g.stride as i64);
+        let h0 = data[base as usize];
+        let (mut rise, mut run) = (f32::NEG_INFINITY, 1.0f32);
+        let mut consider = |a: f32, b: f32, f: f32, du: f32| {
+            let r = a + f * (b - a) - h0;
+            let on_map = (a > OUTSIDE) & ((f == 0.0) | (b > OUTSIDE));
+            let better = on_map & (r * run > rise * du);
+            rise = select(better, r, rise);
+            run = select(better, du, run);
+        };
+        for du in first..=last {
+            let i = (base + self.col_r[du] as i64 * stride) as usize + du;
+            consider(data[i], data[i + stride as usize], self.col_f[du], du as f32);
+        }
+        if self.m != 0.0 {
+            let step = if self.m < 0.0 { -stride } else { stride };
+            for dv in d0..=d1 {
+                let f = self.row_f[dv];
+                let i = (base + dv as i64 * step) as usize + self.row_c[dv] as usize;
+                // A fraction of 0 is a column crossing, already counted.
+                let (b, f) = if f > 0.0 { (data[i + 1], f) } else { (OUTSIDE, 1.0) };
+                consider(data[i], b, f, self.row_du[dv] as f32);
+            }
+        }
+        (rise, run)
+    }
+
+    /// The crossings over `(lo, hi]` anywhere on the torus or the clamped map, each read with
+    /// its own wrapping or edge test. Best as (rise, run in columns).
+    #[allow(clippy::too_many_arguments)]
+    fn trace_anywhere(
+        &self,
+        g: &Grid,
+        wrap: bool,
+        row: usize,
+        col: usize,
+        lo: f64,
+        hi: f64,
+        first: usize,
+        last: usize,
+    ) -> (f32, f32) {
         let h0 = g.at(row, col);
-        // Best as (rise, run in columns), compared by cross-multiplication.
         let (mut rise, mut run) = (f32::NEG_INFINITY, 1.0f32);
         let mut consider = |v: f32, du: f32| {
             let r = v - h0;
@@ -65,9 +181,7 @@ impl Steps {
                 run = du;
             }
         };
-        let last = (hi + 1e-9).min((self.col_r.len() - 1) as f64) as usize;
-        let first = super::near::floor_i(lo) + 1;
-        for du in first.max(1) as usize..=last {
+        for du in first..=last {
             let r = row as i64 + self.col_r[du] as i64;
             let c = col as i64 + du as i64;
             let v = lerp_at(g, wrap, r, c, r + 1, c, self.col_f[du]);
@@ -91,11 +205,16 @@ impl Steps {
                 dv += 1;
             }
         }
-        (rise > f32::NEG_INFINITY).then(|| {
-            let t = run as f64 * self.step_len;
-            ((rise as f64 / t) as f32, t as f32)
-        })
+        (rise, run)
     }
+}
+
+/// `if take { a } else { b }` as bit operations, so that it compiles to a select, not to a
+/// branch that mispredicts on data.
+#[inline(always)]
+fn select(take: bool, a: f32, b: f32) -> f32 {
+    let mask = (take as u32).wrapping_neg();
+    f32::from_bits((a.to_bits() & mask) | (b.to_bits() & !mask))
 }
 
 /// `lerp(G[ra][ca], G[rb][cb], f)`, wrapped or clamped; [`OUTSIDE`] when a needed sample is off

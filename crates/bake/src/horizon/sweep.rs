@@ -17,17 +17,13 @@
 //! shrinking prefix of the next (a hull built left to right and undone one sample at a time).
 //!
 //! Cost: `O(N)` per direction, amortised, with a tangent walk per texel and line that starts from
-//! the previous answer; memory `O(W)` per line plus three `W×H` accumulators.
+//! the previous answer; memory `O(W)`: a texel is finished as soon as its second line has
+//! answered, so no per-texel buffer is needed.
 
 use super::grid::Grid;
-use super::hull::{Hit, PrefixHull, Pt, SuffixHull};
+pub(crate) use super::hull::Hit;
+use super::hull::{PrefixHull, Pt, SuffixHull};
 use super::steps::{Steps, wrap_index};
-
-/// Far-field candidates of one direction, canonical layout: per texel, the column displacement
-/// of the tangent vertex found on the line below it and on the line above it (0: none).
-pub(crate) struct Far {
-    pub candidates: Vec<[u32; 2]>,
-}
 
 /// Parameters of one canonical direction.
 pub(crate) struct Line<'a> {
@@ -41,24 +37,46 @@ pub(crate) struct Line<'a> {
     pub wrap: bool,
 }
 
-pub(crate) fn far_field(g: &Grid, line: &Line) -> Far {
-    let mut far = Far { candidates: vec![[0, 0]; g.w * g.h] };
+/// Runs the far field of one direction. `finish(row, col, [below, above])` is called once per
+/// texel that some line brackets, with the tangent vertices found on the line below and above
+/// it, as soon as both are known.
+pub(crate) fn far_field(g: &Grid, line: &Line, finish: &mut impl FnMut(usize, usize, [Option<Hit>; 2])) {
     if line.reach.is_some_and(|r| r <= line.near) {
-        return far;
+        return;
     }
-    let lines: Vec<i64> = if line.wrap {
-        (0..g.h as i64).collect()
+    let mut sweeper = Sweeper { pending: vec![Pending::NONE; g.w], ..Default::default() };
+    if line.wrap {
+        // The lines form a cycle on the torus: line -1 (= h - 1) opens it, querying only the
+        // texels above it, and line h - 1 closes it, querying only those below.
+        for k in -1..g.h as i64 {
+            sweeper.run(g, line, k, [k < g.h as i64 - 1, k >= 0], finish);
+        }
     } else {
         let span = line.steps.m * (g.w as f64 - 1.0);
         let lo = (-span.max(0.0)).floor() as i64 - 1;
         let hi = g.h as i64 + (-span).max(0.0).ceil() as i64 + 1;
-        (lo..=hi).collect()
-    };
-    let mut sweeper = Sweeper::default();
-    for k in lines {
-        sweeper.run(g, line, k, &mut far);
+        for k in lo..=hi {
+            sweeper.run(g, line, k, [true, true], finish);
+        }
     }
-    far
+    for (col, p) in sweeper.pending.iter().enumerate() {
+        if p.row != u32::MAX {
+            finish(p.row as usize, col, [p.hit, None]);
+        }
+    }
+}
+
+/// A texel whose line below has answered and whose line above has not yet.
+#[derive(Clone, Copy, Debug)]
+struct Pending {
+    /// The texel's row (`u32::MAX`: none).
+    row: u32,
+    /// The tangent vertex found on the line below.
+    hit: Option<Hit>,
+}
+
+impl Pending {
+    const NONE: Pending = Pending { row: u32::MAX, hit: None };
 }
 
 #[derive(Default)]
@@ -67,6 +85,8 @@ struct Sweeper {
     prefix: PrefixHull,
     /// Walk hints per slot (texel above / below the line), for the suffix and prefix hulls.
     hints: [[usize; 2]; 2],
+    /// Per column, the texel waiting for the next line.
+    pending: Vec<Pending>,
 }
 
 impl Sweeper {
@@ -107,7 +127,14 @@ impl Sweeper {
         (lo <= hi).then_some((lo as usize, hi as usize))
     }
 
-    fn run(&mut self, g: &Grid, line: &Line, k: i64, far: &mut Far) {
+    fn run(
+        &mut self,
+        g: &Grid,
+        line: &Line,
+        k: i64,
+        slots: [bool; 2],
+        finish: &mut impl FnMut(usize, usize, [Option<Hit>; 2]),
+    ) {
         let (w, near) = (g.w, line.near);
         self.suffix.clear();
         self.prefix.clear();
@@ -127,7 +154,7 @@ impl Sweeper {
                             self.suffix.push_front(p);
                         }
                     }
-                    self.texels(g, line, k, i, far);
+                    self.texels(g, line, k, i, slots, finish);
                 }
             }
             Some(reach) => {
@@ -160,21 +187,30 @@ impl Sweeper {
                             self.suffix.push_front(p);
                         }
                     }
-                    self.texels(g, line, k, i, far);
+                    self.texels(g, line, k, i, slots, finish);
                 }
             }
         }
     }
 
     /// Queries line `k` at column `i` for the two texels it brackets, each from its own centre
-    /// and height: the texel above the line (slot 0) and the texel below (slot 1). The texels
-    /// then sample their own rays around the tangent columns exactly.
+    /// and height: the texel above the line (slot 0, then waiting for the next line) and the
+    /// texel below (slot 1, which the previous line has answered). A texel the line passes
+    /// through has only slot 0 and is finished at once. `slots` says which slots to query.
     #[inline(always)]
-    fn texels(&mut self, g: &Grid, line: &Line, k: i64, i: usize, far: &mut Far) {
+    fn texels(
+        &mut self,
+        g: &Grid,
+        line: &Line,
+        k: i64,
+        i: usize,
+        slots: [bool; 2],
+        finish: &mut impl FnMut(usize, usize, [Option<Hit>; 2]),
+    ) {
         let on_line = line.steps.col_f[i] == 0.0;
         let ja = k + line.steps.col_r[i] as i64 + (!on_line) as i64;
-        for (j, slot) in [(ja, 0usize), (ja - 1, 1usize)] {
-            if slot == 1 && on_line {
+        for (j, slot) in [(ja - 1, 1usize), (ja, 0usize)] {
+            if !slots[slot] || (slot == 1 && on_line) {
                 continue;
             }
             let j = if line.wrap {
@@ -190,8 +226,21 @@ impl Sweeper {
                 (Some(s), Some(p)) => Some(if p.steeper_than(&s) { p } else { s }),
                 (s, p) => s.or(p),
             };
-            if let Some(Hit { run, .. }) = best {
-                far.candidates[j * g.w + i][slot] = run as u32;
+            let pending = &mut self.pending[i];
+            if slot == 1 {
+                if pending.row == j as u32 {
+                    finish(j, i, [pending.hit, best]);
+                    *pending = Pending::NONE;
+                } else {
+                    finish(j, i, [None, best]);
+                }
+            } else if on_line {
+                finish(j, i, [best, None]);
+            } else {
+                if pending.row != u32::MAX {
+                    finish(pending.row as usize, i, [pending.hit, None]);
+                }
+                *pending = Pending { row: j as u32, hit: best };
             }
         }
     }
