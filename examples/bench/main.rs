@@ -31,10 +31,26 @@ pub fn best_of<T>(runs: usize, mut f: impl FnMut() -> T) -> (f64, T) {
 
 /// Peak resident memory of this process so far, MiB (Linux).
 pub fn peak_rss_mib() -> Option<f64> {
+    status_mib("VmHWM:")
+}
+
+/// Resident memory of this process now, MiB (Linux).
+pub fn rss_mib() -> Option<f64> {
+    status_mib("VmRSS:")
+}
+
+/// A memory line of `/proc/self/status`, in MiB.
+fn status_mib(key: &str) -> Option<f64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let line = status.lines().find(|l| l.starts_with(key))?;
     let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib / 1024.0)
+}
+
+/// Resets this process's peak resident memory to its current size (Linux, `clear_refs` 5), so a
+/// later [`peak_rss_mib`] measures one phase; false when the kernel refuses.
+pub fn reset_peak_rss() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
 }
 
 fn main() {
@@ -42,7 +58,6 @@ fn main() {
     let wanted = |name: &str| args.is_empty() || args.iter().any(|a| a == name);
     let threads = rayon::current_num_threads();
     println!("hikage benchmarks — {threads} threads, best of N runs\n");
-    // Horizon first: its peak-memory row reads the process's high-water mark.
     if wanted("horizon") {
         println!("| figure | input | time | throughput | baseline | ratio |");
         println!("|---|---|---|---|---|---|");
