@@ -396,3 +396,52 @@ fn ribbons_export_as_valid_gltf() {
     let out = dir.run_expecting(&["export", "b", "head.strips", "--gltf", "x.glb", "--out", "y"], 2);
     assert!(stderr(&out).contains("cannot be used with"), "{}", stderr(&out));
 }
+
+/// A curvature asset exported with `export --gltf` (TEXCOORD_0 from its `uv` stream) is itself a
+/// valid `Curvature` input: baked again from the GLB, which repeats positions at the UV seam,
+/// it gives the same vertices and, up to the f32 positions, the same curvature.
+#[test]
+fn curvature_bakes_from_gltf_as_from_obj() {
+    let dir = Dir::new("curvature_gltf");
+    dir.copy_data();
+    dir.write("p.ron", r#"(output: "b", jobs: [Curvature(id: "obj", input: "data/sphere.obj")])"#);
+    dir.run(&["bake", "p.ron"]);
+    dir.run(&["export", "b", "obj", "--gltf", "sphere.glb"]);
+    let glb = dir.read("sphere.glb");
+    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let doc: serde_json::Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
+    assert!(doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"].is_u64(), "{doc}");
+    dir.write(
+        "q.ron",
+        r#"(output: "b", jobs: [Curvature(id: "obj", input: "data/sphere.obj"), Curvature(id: "glb", input: "sphere.glb")])"#,
+    );
+    dir.run(&["bake", "q.ron"]);
+    let bundle = hikage_bundle::Bundle::open(&dir.path("b")).unwrap();
+    let (a, b) = (bundle.read_mesh("obj").unwrap(), bundle.read_mesh("glb").unwrap());
+    assert_eq!(a.read_f32("uv").unwrap(), b.read_f32("uv").unwrap());
+    assert_eq!(a.desc.indices.as_ref().map(|i| i.count), b.desc.indices.as_ref().map(|i| i.count));
+    let (ka, kb) = (a.read_f32("curvature").unwrap(), b.read_f32("curvature").unwrap());
+    let worst = ka.iter().zip(&kb).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
+    assert!(worst < 1e-3, "largest curvature difference {worst}");
+
+    // The same mesh as `.gltf` + `.bin`: the buffer file is an input, so changing it rebakes.
+    let bin_at = 20 + json_len;
+    let mut doc = doc;
+    doc["buffers"][0]["uri"] = serde_json::json!("s.bin");
+    dir.write("s.gltf", serde_json::to_vec(&doc).unwrap());
+    let mut bin = glb[bin_at + 8..].to_vec();
+    dir.write("s.bin", &bin);
+    dir.write("r.ron", r#"(output: "c", jobs: [Curvature(id: "s", input: "s.gltf")])"#);
+    dir.run(&["bake", "r.ron"]);
+    let curvature = |dir: &Dir| {
+        let bundle = hikage_bundle::Bundle::open(&dir.path("c")).unwrap();
+        bundle.read_mesh("s").unwrap().read_f32("curvature").unwrap()
+    };
+    let before = curvature(&dir);
+    assert!(before == kb, "the .gltf + .bin bake differs from the GLB bake");
+    let y = f32::from_le_bytes(bin[4..8].try_into().unwrap());
+    bin[4..8].copy_from_slice(&(y * 1.5).to_le_bytes()); // lift vertex 0 (a pole)
+    dir.write("s.bin", &bin);
+    dir.run(&["bake", "r.ron"]);
+    assert!(curvature(&dir) != before, "a changed buffer file did not rebake");
+}

@@ -18,6 +18,7 @@ fn read(reader: &str, path: &Path) -> Option<(&'static str, String)> {
         "strands" => hikage_bake::jobs::strands::load(path).err().map(bake),
         "heightfield" => hikage_bake::heightfield::load_samples(path, &Default::default()).err().map(bake),
         "pipeline" => hikage_bake::Pipeline::load(path).err().map(bake),
+        "mesh" => hikage_bake::mesh::load(path, Default::default()).err().map(bake),
         "ktx2" => {
             let bytes = std::fs::read(path).unwrap();
             hikage_bundle::ktx2_file::decode(&bytes, path, &Default::default()).err().map(bundle)

@@ -48,6 +48,25 @@ put("obj/index_out_of_range.obj", b"v 0 0 0\nv 1 0 0\nl 1 9\n", "strands", "inpu
 put("obj/single_index.obj", b"v 0 0 0\nl 1\n", "strands", "input", "line 2", "two or more")
 put("obj/nan_vertex.obj", b"v 0 nan 0\nv 1 0 0\nl 1 2\n", "strands", "input", "line 1", "finite")
 
+def glb(json_text, bin_bytes=b""):
+    j = json_text.encode().ljust((len(json_text) + 3) // 4 * 4, b" ")
+    b = bin_bytes.ljust((len(bin_bytes) + 3) // 4 * 4, b"\0")
+    chunks = struct.pack("<I", len(j)) + b"JSON" + j + (struct.pack("<I", len(b)) + b"BIN\0" + b if b else b"")
+    return b"glTF" + struct.pack("<II", 2, 12 + len(chunks)) + chunks
+
+TRI = struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0) + struct.pack("<6f", 0, 0, 1, 0, 0, 1)
+def tri_json(attributes='"POSITION": 0, "TEXCOORD_0": 1', uri="", count=3):
+    return ('{"asset": {"version": "2.0"}, "buffers": [{%s"byteLength": 60}], '
+            '"bufferViews": [{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 24}], '
+            '"accessors": [{"bufferView": 0, "componentType": 5126, "count": %d, "type": "VEC3"}, '
+            '{"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"}], '
+            '"meshes": [{"primitives": [{"attributes": {%s}}]}]}') % (uri, count, attributes)
+put("gltf/truncated.glb", glb(tri_json(), TRI)[:-20], "mesh", "input", "GLB header says", "the file has")
+put("gltf/no_uv.glb", glb(tri_json('"POSITION": 0'), TRI), "mesh", "input", "primitive 0", "TEXCOORD_0")
+put("gltf/count_past_view.glb", glb(tri_json(count=4000000000), TRI), "mesh", "input", "accessor 0", "do not fit")
+put("gltf/escaping_uri.gltf", tri_json(uri='"uri": "../../etc/passwd", ').encode(), "mesh", "input", "buffer 0", "beside the glTF")
+put("gltf/not_json.gltf", b"{ nope", "mesh", "input", "glTF JSON")
+
 put("png/truncated.png", png(8, 8)[:60], "heightfield", "input", "PNG")
 put("png/huge_header.png", png(8, 8)[:33].replace(struct.pack(">II", 8, 8), struct.pack(">II", 100000, 100000)), "heightfield", "limit", "100000")
 put("png/empty.png", b"", "heightfield", "input", "0-byte")

@@ -100,11 +100,25 @@ pub fn heightfield(data: &[u8]) {
     }
 }
 
+/// Mesh bytes → [`crate::mesh::load`] as glTF (`.gltf`: GLB or JSON) and as OBJ, then
+/// curvature of what they accept (files up to 1 MiB).
+pub fn mesh(data: &[u8]) {
+    let limits = crate::mesh::MeshLimits { max_bytes: 1 << 20 };
+    for name in ["mesh.gltf", "mesh.obj"] {
+        let path = scratch().join(name);
+        if std::fs::write(&path, data).is_ok() {
+            if let Ok(m) = crate::mesh::load(&path, limits) {
+                let _ = crate::curvature::compute(&m);
+            }
+        }
+    }
+}
+
 /// A fuzz entry point.
 pub type Target = fn(&[u8]);
 
 /// The targets by name, for the regression replay.
-pub const TARGETS: [(&str, Target); 7] = [
+pub const TARGETS: [(&str, Target); 8] = [
     ("manifest", manifest),
     ("bundle", bundle),
     ("ktx2", ktx2),
@@ -112,4 +126,5 @@ pub const TARGETS: [(&str, Target); 7] = [
     ("obj_polylines", obj_polylines),
     ("pipeline", pipeline),
     ("heightfield", heightfield),
+    ("mesh", mesh),
 ];

@@ -1,7 +1,7 @@
 //! Writing a mesh asset as binary glTF 2.0 (`.glb`) for engines and viewers.
 //!
 //! Streams map to glTF attributes: `position` → `POSITION` (with the min/max glTF requires),
-//! `normal` → `NORMAL`, `color` → `COLOR_0`; every other stream becomes a custom attribute
+//! `normal` → `NORMAL`, `color` → `COLOR_0`, `uv` → `TEXCOORD_0`; every other stream becomes a custom attribute
 //! named `_` + its upper-cased name (`_WIDTH`, `_OPACITY`, `_PARAM`, …). Indices are
 //! `UNSIGNED_INT` triangles. One buffer, one buffer view per stream, all 4-byte aligned.
 
@@ -17,6 +17,7 @@ fn attribute_name(stream: &str) -> String {
         "position" => "POSITION".into(),
         "normal" => "NORMAL".into(),
         "color" => "COLOR_0".into(),
+        "uv" => "TEXCOORD_0".into(),
         other => format!("_{}", other.to_uppercase()),
     }
 }

@@ -1,4 +1,4 @@
-//! The `Curvature` job: an OBJ mesh with UVs → a `curvature` mesh asset.
+//! The `Curvature` job: an OBJ or glTF mesh with UVs → a `curvature` mesh asset.
 
 use std::path::PathBuf;
 
@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use super::{BakedAsset, BakedPayload, JobContext};
 use crate::curvature;
 use crate::error::BakeError;
-use crate::mesh::obj;
+use crate::mesh;
 
 /// Version of the curvature job; part of the input hash.
 pub const ALGORITHM_VERSION: u32 = 1;
@@ -19,7 +19,8 @@ pub const ALGORITHM_VERSION: u32 = 1;
 pub struct CurvatureJob {
     /// Asset id.
     pub id: String,
-    /// Wavefront OBJ with texture coordinates on every face corner.
+    /// Wavefront OBJ with texture coordinates on every face corner, or glTF 2.0 (`.gltf`,
+    /// `.glb`) whose first mesh has `POSITION` and `TEXCOORD_0` (see [`crate::mesh::gltf`]).
     pub input: PathBuf,
 }
 
@@ -34,7 +35,7 @@ impl CurvatureJob {
         ctx: &JobContext,
     ) -> Result<(crate::mesh::Mesh, Vec<curvature::VertexCurvature>), BakeError> {
         let path = ctx.base_dir.join(&self.input);
-        let mesh = obj::load(&path, obj::ObjLimits::default())?;
+        let mesh = mesh::load(&path, mesh::MeshLimits::default())?;
         let c = curvature::compute(&mesh).map_err(|e| BakeError::input(&path, None, e.to_string()))?;
         Ok((mesh, c))
     }

@@ -86,7 +86,11 @@ impl Job {
             Job::Horizon(j) => vec![base_dir.join(&j.input)],
             Job::Relief(j) => vec![base_dir.join(&j.input)],
             Job::Strands(j) => vec![base_dir.join(&j.input)],
-            Job::Curvature(j) => vec![base_dir.join(&j.input)],
+            Job::Curvature(j) => {
+                let input = base_dir.join(&j.input);
+                let buffers = crate::mesh::gltf::external_files(&input);
+                std::iter::once(input).chain(buffers).collect()
+            }
         }
     }
 

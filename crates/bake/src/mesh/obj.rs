@@ -6,34 +6,12 @@ use std::path::Path;
 
 use glam::{DVec2, DVec3};
 
-use super::Mesh;
+use super::{Mesh, MeshLimits};
 use crate::error::BakeError;
 
-/// Limits of the reader, checked as the file is read.
-#[derive(Clone, Copy, Debug)]
-pub struct ObjLimits {
-    /// Largest file accepted, bytes.
-    pub max_bytes: u64,
-}
-
-impl Default for ObjLimits {
-    fn default() -> Self {
-        ObjLimits { max_bytes: 512 << 20 }
-    }
-}
-
 /// Reads an OBJ file.
-pub fn load(path: &Path, limits: ObjLimits) -> Result<Mesh, BakeError> {
-    let len = std::fs::metadata(path).map_err(|e| BakeError::io(path, e))?.len();
-    if len > limits.max_bytes {
-        return Err(BakeError::Limit {
-            path: path.to_path_buf(),
-            what: "OBJ size".into(),
-            value: len,
-            limit: limits.max_bytes,
-        });
-    }
-    let bytes = std::fs::read(path).map_err(|e| BakeError::io(path, e))?;
+pub fn load(path: &Path, limits: MeshLimits) -> Result<Mesh, BakeError> {
+    let bytes = super::read_limited(path, limits.max_bytes, "OBJ size")?;
     let text = std::str::from_utf8(&bytes)
         .map_err(|e| BakeError::input(path, Some(format!("byte {}", e.valid_up_to())), "expected UTF-8 text"))?;
     parse(text, path)
