@@ -240,6 +240,9 @@ fn direction(
     let mut near_half = vec![0u16; if format == HorizonFormat::Rg8Unorm { g.w * g.h } else { 0 }];
     let mut best_s = vec![0.0f32; g.w];
     let mut best_t = vec![0.0f32; g.w];
+    // A transposed orientation's rows are columns of the output: they are encoded into a tile of
+    // TILE rows first and written out a column run at a time, not a texel per cache line.
+    let mut tile = vec![0u8; if orientation.transpose { TILE * g.w * texel_bytes } else { 0 }];
     for row in 0..g.h {
         near::row(g, &taps, row, &mut best_s, &mut best_t);
         let exit = exit(row);
@@ -259,10 +262,23 @@ fn direction(
                 s = OPEN_SKY_SLOPE;
                 t = 0.0;
             }
-            let o = at(col, row);
-            encode(format, s, t, distance_scale, &mut out[o..o + texel_bytes]);
+            let o = if tile.is_empty() { at(col, row) } else { ((row % TILE) * g.w + col) * texel_bytes };
+            let dst = if tile.is_empty() { &mut out[o..o + texel_bytes] } else { &mut tile[o..o + texel_bytes] };
+            encode(format, s, t, distance_scale, dst);
             if let Some(h) = near_half.get_mut(row * g.w + col) {
                 *h = half::f16::from_f32(s).to_bits();
+            }
+        }
+        if !tile.is_empty() && (row % TILE == TILE - 1 || row + 1 == g.h) {
+            let first = row - row % TILE;
+            for col in 0..g.w {
+                // (col, first + k) is `k` texels after (col, first) in the output.
+                let o = at(col, first);
+                for k in 0..=row - first {
+                    let from = (k * g.w + col) * texel_bytes;
+                    out[o + k * texel_bytes..o + (k + 1) * texel_bytes]
+                        .copy_from_slice(&tile[from..from + texel_bytes]);
+                }
             }
         }
     }
@@ -320,6 +336,9 @@ fn direction(
         }
     });
 }
+
+/// Rows of a transposed orientation encoded before they are written out together.
+const TILE: usize = 16;
 
 /// Columns within which a ray leaving a clamped map through a row edge is traced exactly: there
 /// the lines around the texel leave the map at other columns than its ray (up to `1/|m|`
