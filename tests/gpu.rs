@@ -547,12 +547,8 @@ fn shadow_fit_scene_sigma_matches_the_cpu() {
     let light = Light::Point(light_pos);
     let options = FitOptions {
         near: ((light_pos - scene.bounds.centre).length() - scene.bounds.radius) * 0.95,
-        max_fov_degrees: 120.0,
         resolution: 512,
-        snap: false,
-        psm: false,
-        vertex_test_only: false,
-        scene: scene.bounds,
+        ..FitOptions::new(scene.bounds)
     };
     let fit = shadow_fit::fit(light, camera, &[scene.mesh()], &options, &mut Scratch::default());
     let mut medians = Vec::new();

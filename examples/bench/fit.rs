@@ -16,15 +16,7 @@ pub fn run() {
     let camera = directx::perspective(60f32.to_radians(), 4.0 / 3.0, 0.5, 150.0)
         * look_at_mat4(Vec3::new(90.0, 4.0, 0.0), Vec3::new(90.0, 1.0, 20.0), Vec3::Y);
     let light = Light::Point(Vec3::new(-260.0, 380.0, 160.0));
-    let base = FitOptions {
-        near: 1.0,
-        max_fov_degrees: 120.0,
-        resolution: 1024,
-        snap: false,
-        psm: false,
-        vertex_test_only: false,
-        scene: scene.bounds,
-    };
+    let base = FitOptions::new(scene.bounds);
     println!(
         "Shadow-map fit, CPU, one thread ({vertices} vertices, {} triangles; best of 20)\n",
         scene.indices.len() / 3

@@ -98,12 +98,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // Every caster lies in the scene sphere: a near plane just before it keeps them all and
         // spends the depth range on the scene.
         near: ((light_pos - scene.bounds.centre).length() - scene.bounds.radius).max(1.0) * 0.95,
-        max_fov_degrees: 120.0,
         resolution: RESOLUTION,
-        snap: false,
-        psm: false,
-        vertex_test_only: false,
-        scene: scene.bounds,
+        ..FitOptions::new(scene.bounds)
     };
     let methods = [Method::Fixed, Method::Fit, Method::FitSnapped, Method::FitPsm];
     let options = |m: Method| FitOptions { snap: m == Method::FitSnapped, psm: m == Method::FitPsm, ..base };

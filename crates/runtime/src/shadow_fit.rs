@@ -76,6 +76,23 @@ pub struct FitOptions {
     pub scene: Sphere,
 }
 
+impl FitOptions {
+    /// The defaults for a scene bounded by `scene`: near plane 1, at most 120° of field of view,
+    /// 1024² texels, the seed's fit with triangle clipping, no snapping, no PSM. Set the fields
+    /// that differ with struct update syntax.
+    pub fn new(scene: Sphere) -> FitOptions {
+        FitOptions {
+            near: 1.0,
+            max_fov_degrees: 120.0,
+            resolution: 1024,
+            snap: false,
+            psm: false,
+            vertex_test_only: false,
+            scene,
+        }
+    }
+}
+
 /// Which case the fit took.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FitKind {
@@ -392,18 +409,6 @@ mod tests {
         )
     }
 
-    fn options(scene: Sphere) -> FitOptions {
-        FitOptions {
-            near: 1.0,
-            max_fov_degrees: 120.0,
-            resolution: 1024,
-            snap: false,
-            psm: false,
-            vertex_test_only: false,
-            scene,
-        }
-    }
-
     fn inside(m: Mat4, p: Vec3) -> bool {
         let c = m * p.extend(1.0);
         let e = 1e-4 * c.w.abs();
@@ -436,14 +441,14 @@ mod tests {
         let scene = Sphere { centre: Vec3::ZERO, radius: 1500.0 };
         let mut scratch = Scratch::default();
         // The seed's vertex test sees nothing at all.
-        let vertex_only = FitOptions { vertex_test_only: true, ..options(scene) };
+        let vertex_only = FitOptions { vertex_test_only: true, ..FitOptions::new(scene) };
         let f = fit(Light::Point(Vec3::new(60.0, 150.0, -40.0)), cam, &[mesh], &vertex_only, &mut scratch);
         assert_eq!(f.kind, FitKind::NothingVisible);
         // Clipping finds the visible part; every ground point seen lies inside the light volume.
         let seen = seen_ground(cam);
         assert!(seen.len() > 500);
         for light in [Light::Point(Vec3::new(60.0, 150.0, -40.0)), Light::Directional(Vec3::new(0.3, -1.0, -0.2))] {
-            let f = fit(light, cam, &[mesh], &options(scene), &mut scratch);
+            let f = fit(light, cam, &[mesh], &FitOptions::new(scene), &mut scratch);
             assert_eq!(f.kind, FitKind::Visible);
             assert!(f.sphere.radius < 200.0, "{:?}", f.sphere);
             for p in &seen {
@@ -466,11 +471,11 @@ mod tests {
         assert!(inside(cam, shadow));
         let scene = Sphere { centre: Vec3::ZERO, radius: 1500.0 };
         let mut scratch = Scratch::default();
-        let f = fit(Light::Directional(dir), cam, &[mesh], &options(scene), &mut scratch);
+        let f = fit(Light::Directional(dir), cam, &[mesh], &FitOptions::new(scene), &mut scratch);
         assert!(inside(f.view_proj, shadow) && inside(f.view_proj, caster));
         // Without the extension toward the light (the box only around the visible sphere), the
         // caster is cut off: what the extension is for.
-        let tight = FitOptions { scene: f.sphere, ..options(scene) };
+        let tight = FitOptions { scene: f.sphere, ..FitOptions::new(scene) };
         let t = fit(Light::Directional(dir), cam, &[mesh], &tight, &mut scratch);
         assert!(!inside(t.view_proj, caster));
         // A point light above and behind the caster: the cone through the sphere holds it.
@@ -489,9 +494,9 @@ mod tests {
         let scene = Sphere { centre: Vec3::ZERO, radius: 1500.0 };
         let mut scratch = Scratch::default();
         for light in [Light::Point(Vec3::new(0.0, 3000.0, 0.0)), Light::Directional(Vec3::NEG_Y)] {
-            let f = fit(light, sky, &[mesh], &options(scene), &mut scratch);
+            let f = fit(light, sky, &[mesh], &FitOptions::new(scene), &mut scratch);
             assert_eq!(f.kind, FitKind::NothingVisible);
-            assert_eq!(f.view_proj, fixed(light, &options(scene)));
+            assert_eq!(f.view_proj, fixed(light, &FitOptions::new(scene)));
             assert!(f.view_proj.is_finite());
         }
     }
@@ -502,9 +507,9 @@ mod tests {
         let mesh = MeshRef { world: Mat4::IDENTITY, positions: &positions, indices: &indices };
         let scene = Sphere { centre: Vec3::ZERO, radius: 1500.0 };
         let mut scratch = Scratch::default();
-        let seen = fit(Light::Directional(Vec3::NEG_Y), camera(), &[mesh], &options(scene), &mut scratch);
+        let seen = fit(Light::Directional(Vec3::NEG_Y), camera(), &[mesh], &FitOptions::new(scene), &mut scratch);
         for light in [seen.sphere.centre, seen.sphere.centre + Vec3::new(1.0, 0.5, 0.0)] {
-            let f = fit(Light::Point(light), camera(), &[mesh], &options(scene), &mut scratch);
+            let f = fit(Light::Point(light), camera(), &[mesh], &FitOptions::new(scene), &mut scratch);
             assert_eq!(f.kind, FitKind::LightInside);
             assert!(f.view_proj.is_finite(), "{:?}", f.view_proj);
         }
@@ -533,7 +538,7 @@ mod tests {
                 Light::Directional(Vec3::new(0.2, -1.0, -0.4)), // from behind it
             ];
             for (k, light) in lights.into_iter().enumerate() {
-                let o = FitOptions { psm, ..options(scene) };
+                let o = FitOptions { psm, ..FitOptions::new(scene) };
                 let f = fit(light, camera(), &[mesh], &o, &mut scratch);
                 let behind = k == 1 || k == 3;
                 let expected = if psm && behind { FitKind::PsmFallback } else { FitKind::Visible };
@@ -552,7 +557,7 @@ mod tests {
         let (positions, indices) = ground();
         let mesh = MeshRef { world: Mat4::IDENTITY, positions: &positions, indices: &indices };
         let scene = Sphere { centre: Vec3::ZERO, radius: 1500.0 };
-        let o = FitOptions { snap: true, ..options(scene) };
+        let o = FitOptions { snap: true, ..FitOptions::new(scene) };
         let mut scratch = Scratch::default();
         let at = |x: f32| {
             directx::perspective(60f32.to_radians(), 1.0, 0.1, 40.0)
@@ -585,8 +590,8 @@ mod tests {
         assert!(whole >= 17, "only {whole} of 20 frames kept the texel grid");
         // Unsnapped, the same move shifts the map by a fraction of a texel.
         let (ua, ub) = (
-            fit(light, at(0.0), &[mesh], &options(scene), &mut scratch),
-            fit(light, at(0.37), &[mesh], &options(scene), &mut scratch),
+            fit(light, at(0.0), &[mesh], &FitOptions::new(scene), &mut scratch),
+            fit(light, at(0.37), &[mesh], &FitOptions::new(scene), &mut scratch),
         );
         let moved = (ub.view_proj.project_point3(p) - ua.view_proj.project_point3(p)) * o.resolution as f32 / 2.0;
         assert!((moved.x - moved.x.round()).abs() > 0.01 || (moved.y - moved.y.round()).abs() > 0.01);
