@@ -127,8 +127,8 @@ impl Steps {
     }
 
     /// Column crossings `first..=last` and row crossings `d0..=d1`, read straight from the
-    /// padded storage (see [`padded_span`](Self::padded_span)): no wrapping or edge tests, and
-    /// selects instead of branches. Best as (rise, run in columns).
+    /// padded storage (see [`padded_span`](Self::padded_span)), with no wrapping or edge test per
+    /// sample. Best as (rise, run in columns).
     #[inline(always)]
     fn trace_padded(&self, g: &Grid, base: i64, (first, last): (usize, usize), (d0, d1): (usize, usize)) -> (f32, f32) {
         let (data, stride) = (g.data(), g.stride as i64);
@@ -138,8 +138,9 @@ impl Steps {
             let r = a + f * (b - a) - h0;
             let on_map = (a > OUTSIDE) & ((f == 0.0) | (b > OUTSIDE));
             let better = on_map & (r * run > rise * du);
-            rise = select(better, r, rise);
-            run = select(better, du, run);
+            if better {
+                (rise, run) = (r, du);
+            }
         };
         for du in first..=last {
             let i = (base + self.col_r[du] as i64 * stride) as usize + du;
@@ -207,14 +208,6 @@ impl Steps {
         }
         (rise, run)
     }
-}
-
-/// `if take { a } else { b }` as bit operations, so that it compiles to a select, not to a
-/// branch that mispredicts on data.
-#[inline(always)]
-fn select(take: bool, a: f32, b: f32) -> f32 {
-    let mask = (take as u32).wrapping_neg();
-    f32::from_bits((a.to_bits() & mask) | (b.to_bits() & !mask))
 }
 
 /// `lerp(G[ra][ca], G[rb][cb], f)`, wrapped or clamped; [`OUTSIDE`] when a needed sample is off
