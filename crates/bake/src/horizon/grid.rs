@@ -48,6 +48,17 @@ impl Grid {
     }
 }
 
+/// An empty vector with room for `len` heights whose memory goes back to the system when it is
+/// dropped. glibc serves blocks below its mmap threshold from the heap and keeps them resident
+/// after they are freed; it raises that threshold (up to 32 MiB) as large blocks are freed, so a
+/// 16 MiB grid freed before the bake's last slice is written would still count in its peak. A
+/// capacity above the largest threshold is always mapped on its own; capacity never written is
+/// never resident.
+fn returnable(len: usize) -> Vec<f32> {
+    const FLOOR: usize = (32 << 20) / std::mem::size_of::<f32>() + 1024;
+    Vec::with_capacity(if len >= FLOOR / 64 { len.max(FLOOR) } else { len })
+}
+
 /// How a canonical grid maps to the original: `transpose` swaps `u` and `v`, then `flip`
 /// mirrors the (new) columns.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -92,7 +103,8 @@ impl Orientation {
     ) -> Grid {
         let (w, h, gsx, gsy) = if self.transpose { (height, width, sy, sx) } else { (width, height, sx, sy) };
         let stride = w + pad;
-        let mut data = vec![super::near::OUTSIDE; stride * (h + 2 * pad)];
+        let mut data = returnable(stride * (h + 2 * pad));
+        data.resize(stride * (h + 2 * pad), super::near::OUTSIDE);
         for (r, out) in data.chunks_exact_mut(stride).enumerate() {
             let row = r as isize - pad as isize;
             if !(0..h as isize).contains(&row) && !wrap {

@@ -45,7 +45,7 @@ use grid::{Grid, Orientation};
 pub const OPEN_SKY_SLOPE: f32 = -65504.0;
 
 /// Version of the horizon baker; part of the input hash.
-pub const ALGORITHM_VERSION: u32 = 2;
+pub const ALGORITHM_VERSION: u32 = 3;
 
 /// What happens to rays at the map edge (the bundle's [`hikage_bundle::EdgeMode`]).
 pub use hikage_bundle::EdgeMode as Edge;
@@ -150,20 +150,24 @@ pub fn bake(
         _ => 1.0,
     };
 
+    // Zeroed pages are not resident until written, so the output grows as it is filled.
     let mut bytes = vec![0u8; w * h * d * texel_bytes];
     let done = AtomicU64::new(0);
+    let pad = settings.near_field as usize + 2;
+    let wrap = settings.edge == Edge::Wrap;
+    let slice_len = w * h * texel_bytes;
     // Directions grouped by orientation, so each canonical grid is built once per group.
+    // Direction 0 is held back: see below.
     for orientation in Orientation::ALL {
-        let dirs: Vec<usize> = (0..d)
+        let dirs: Vec<usize> = (1..d)
             .filter(|&k| Orientation::for_azimuth(std::f64::consts::TAU * k as f64 / d as f64).0 == orientation)
             .collect();
         if dirs.is_empty() {
             continue;
         }
-        let pad = settings.near_field as usize + 2;
-        let grid = orientation.grid((w, h), &hf.samples, hf.height_scale, (sx, sy), pad, settings.edge == Edge::Wrap);
+        let grid = orientation.grid((w, h), &hf.samples, hf.height_scale, (sx, sy), pad, wrap);
         let slices: Vec<(usize, &mut [u8])> =
-            bytes.chunks_mut(w * h * texel_bytes).enumerate().filter(|(k, _)| dirs.contains(k)).collect();
+            bytes.chunks_mut(slice_len).enumerate().filter(|(k, _)| dirs.contains(k)).collect();
         slices.into_par_iter().for_each(|(k, slice)| {
             let phi = std::f64::consts::TAU * k as f64 / d as f64;
             let (_, m) = Orientation::for_azimuth(phi);
@@ -171,6 +175,19 @@ pub fn bake(
             progress(done.fetch_add(1, Ordering::Relaxed) + 1, d as u64);
         });
     }
+    // Direction 0 (φ = 0) comes last, after the last whole-map copy is gone: its rays are the
+    // map's rows, so a band of rows is a map of its own and needs only a band-sized copy. Its
+    // slice is untouched, hence not resident, while a whole-map copy is alive, so the bake's
+    // peak stays near the output plus the input.
+    let (orientation, m) = Orientation::for_azimuth(0.0);
+    let band = ROW_BAND.min(h);
+    bytes[..slice_len].par_chunks_mut(band * w * texel_bytes).enumerate().for_each(|(b, out)| {
+        let rows = out.len() / (w * texel_bytes);
+        let samples = &hf.samples[b * band * w..(b * band + rows) * w];
+        let grid = orientation.grid((w, rows), samples, hf.height_scale, (sx, sy), pad, wrap);
+        direction(&grid, orientation, (w, rows), m, settings, format, distance_scale, out);
+    });
+    progress(done.fetch_add(1, Ordering::Relaxed) + 1, d as u64);
     let desc = TextureDesc {
         format: format.texture_format(),
         dimension: TextureDimension::D3,
@@ -200,8 +217,8 @@ fn direction(
 ) {
     let step_len = (g.sx * g.sx + (m * g.sy).powi(2)).sqrt();
     // Reach in columns (real for traces, whole columns for the sweep). Rays on a torus are
-    // followed for at most 4 map lengths.
-    let cap = 4.0 * (g.w + g.h) as f64;
+    // followed for at most 4 map lengths along their major axis.
+    let cap = 4.0 * g.w as f64;
     let reach = match (settings.max_distance, settings.edge) {
         (Some(md), Edge::Wrap) => Some((md as f64 / step_len).min(cap)),
         (Some(md), Edge::Clamp) => Some((md as f64 / step_len).min(g.w as f64)),
@@ -339,6 +356,9 @@ fn direction(
 
 /// Rows of a transposed orientation encoded before they are written out together.
 const TILE: usize = 16;
+
+/// Rows per band of direction 0, baked band by band from the input.
+const ROW_BAND: usize = 64;
 
 /// Columns within which a ray leaving a clamped map through a row edge is traced exactly: there
 /// the lines around the texel leave the map at other columns than its ray (up to `1/|m|`
