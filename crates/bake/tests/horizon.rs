@@ -176,6 +176,28 @@ fn output_is_identical_at_any_thread_count() {
 }
 
 #[test]
+fn eight_bit_maps_are_the_exact_map_rounded() {
+    // Where the near and far field round to one 8-bit slope, rg8 must still keep the distance of
+    // the steeper one: every rg8 texel is the rg32f texel encoded as the format says (β/π + 0.5
+    // and d / distance_scale as 8-bit unorms).
+    let unorm = |x: f32| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
+    let hf = field(128, synth::terrain(128), (1.0, 1.0), 6.0);
+    for (edge, max_distance) in [(Edge::Wrap, Some(40.0)), (Edge::Clamp, None)] {
+        let mut s = HorizonSettings { max_distance, ..settings(16, edge) };
+        let exact = horizon::bake(&hf, &s, &|_, _| {}).unwrap();
+        s.format = HorizonFormat::Rg8Unorm;
+        let byte = horizon::bake(&hf, &s, &|_, _| {}).unwrap();
+        let e = &exact.texture.levels[0];
+        for (t, code) in byte.texture.levels[0].chunks_exact(2).enumerate() {
+            let f = |i: usize| f32::from_le_bytes(e[t * 8 + i..t * 8 + i + 4].try_into().unwrap());
+            let (slope, dist) = (f(0), f(4));
+            let want = [unorm(slope.atan() / std::f32::consts::PI + 0.5), unorm(dist / byte.distance_scale)];
+            assert_eq!(code, want, "{edge:?} texel-direction {t}: rg32f ({slope}, {dist})");
+        }
+    }
+}
+
+#[test]
 fn bad_settings_are_refused() {
     let hf = field(8, vec![0.0; 64], (1.0, 1.0), 1.0);
     for s in [

@@ -17,7 +17,9 @@
 //! The near field is encoded into the output first; the sweep finishes each texel as soon as
 //! both of its lines have answered and overwrites the texel when the far field is steeper. So
 //! the working memory is one padded, oriented copy of the heights ([`grid`]) plus `O(W)` per
-//! thread (8-bit output adds a half-float slope per texel of the direction in flight).
+//! thread. (An 8-bit slope is too coarse to tell which is steeper when both round to the same
+//! code; that texel's near field is then traced again.) Direction 0 is baked last, after the
+//! last copy is freed, from bands of rows: its slice is not resident while a copy is.
 //!
 //! Edges: `Wrap` continues rays on the torus (tileable bump maps) for one map length along the
 //! ray's major axis unless `max_distance` is set; `Clamp` stops rays at the map edge. A ray with
@@ -252,9 +254,9 @@ fn direction(
         }
     };
 
-    // Near field, and the exact traces that stand in for the far field. An 8-bit slope is too
-    // coarse to compare the far field with, so those keep the near-field slope in half precision.
-    let mut near_half = vec![0u16; if format == HorizonFormat::Rg8Unorm { g.w * g.h } else { 0 }];
+    let rg8_guards = if format == HorizonFormat::Rg8Unorm { Rg8Guards::new() } else { Rg8Guards::default() };
+
+    // Near field, and the exact traces that stand in for the far field.
     let mut best_s = vec![0.0f32; g.w];
     let mut best_t = vec![0.0f32; g.w];
     // A transposed orientation's rows are columns of the output: they are encoded into a tile of
@@ -282,9 +284,6 @@ fn direction(
             let o = if tile.is_empty() { at(col, row) } else { ((row % TILE) * g.w + col) * texel_bytes };
             let dst = if tile.is_empty() { &mut out[o..o + texel_bytes] } else { &mut tile[o..o + texel_bytes] };
             encode(format, s, t, distance_scale, dst);
-            if let Some(h) = near_half.get_mut(row * g.w + col) {
-                *h = half::f16::from_f32(s).to_bits();
-            }
         }
         if !tile.is_empty() && (row % TILE == TILE - 1 || row + 1 == g.h) {
             let first = row - row % TILE;
@@ -343,12 +342,24 @@ fn direction(
         let texel = &mut out[o..o + texel_bytes];
         // Rounding is monotonic, so comparing with the near-field slope as stored in half (or
         // full) precision picks the same slope as comparing before rounding.
-        let stored = match format {
-            HorizonFormat::Rg8Unorm => half::f16::from_bits(near_half[row * g.w + col]).to_f32(),
-            HorizonFormat::Rg16Float => half::f16::from_le_bytes([texel[0], texel[1]]).to_f32(),
-            HorizonFormat::Rg32Float => f32::from_le_bytes([texel[0], texel[1], texel[2], texel[3]]),
+        let replace = match format {
+            HorizonFormat::Rg16Float => best.0 > half::f16::from_le_bytes([texel[0], texel[1]]).to_f32(),
+            HorizonFormat::Rg32Float => best.0 > f32::from_le_bytes([texel[0], texel[1], texel[2], texel[3]]),
+            // An 8-bit slope cannot tell a tie: then the near pass is traced again for this texel.
+            HorizonFormat::Rg8Unorm => match rg8_guards.compare(best.0, texel[0]) {
+                std::cmp::Ordering::Greater => true,
+                std::cmp::Ordering::Less => false,
+                std::cmp::Ordering::Equal => {
+                    let trace = |lo: f64, hi: f64| steps.trace(g, wrap, row, col, lo, hi);
+                    let mut near = trace(0.0, near_reach).unwrap_or((f32::NEG_INFINITY, 0.0));
+                    if end.is_finite() && end.fract() > 0.0 {
+                        steeper(&mut near, trace(end.floor().max(near_f), end));
+                    }
+                    best.0 > near.0
+                }
+            },
         };
-        if best.0 > stored {
+        if replace {
             encode(format, best.0, best.1, distance_scale, texel);
         }
     });
@@ -369,8 +380,7 @@ const EXIT_TRACE: f64 = 64.0;
 fn encode(format: HorizonFormat, slope: f32, dist: f32, distance_scale: f32, out: &mut [u8]) {
     match format {
         HorizonFormat::Rg8Unorm => {
-            let unorm = |x: f32| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
-            out[0] = unorm(slope.atan() / std::f32::consts::PI + 0.5);
+            out[0] = rg8_slope(slope);
             out[1] = unorm(dist / distance_scale);
         }
         HorizonFormat::Rg16Float => {
@@ -382,6 +392,46 @@ fn encode(format: HorizonFormat, slope: f32, dist: f32, distance_scale: f32, out
         HorizonFormat::Rg32Float => {
             out[..4].copy_from_slice(&slope.to_le_bytes());
             out[4..8].copy_from_slice(&dist.to_le_bytes());
+        }
+    }
+}
+
+/// `x` in [0, 1] as an 8-bit unorm (clamped).
+fn unorm(x: f32) -> u8 {
+    (x.clamp(0.0, 1.0) * 255.0).round() as u8
+}
+
+/// The 8-bit code of slope `tan β`: `β / π + 0.5`.
+fn rg8_slope(slope: f32) -> u8 {
+    unorm(slope.atan() / std::f32::consts::PI + 0.5)
+}
+
+/// Per 8-bit slope code, slopes safely below and above the slopes that round to it, so most
+/// comparisons of a slope with a stored code need no `atan`.
+#[derive(Default)]
+struct Rg8Guards {
+    below: Vec<f32>,
+    above: Vec<f32>,
+}
+
+impl Rg8Guards {
+    fn new() -> Rg8Guards {
+        // Code c holds β/π + 0.5 within half a step of c/255; widened by 1e-5 rad for rounding.
+        let edge = |c: f64, pad: f64| (((c / 255.0) - 0.5) * std::f64::consts::PI + pad).tan() as f32;
+        let below = (0..256).map(|c| if c == 0 { f32::NEG_INFINITY } else { edge(c as f64 - 0.5, -1e-5) }).collect();
+        let above = (0..256).map(|c| if c == 255 { f32::INFINITY } else { edge(c as f64 + 0.5, 1e-5) }).collect();
+        Rg8Guards { below, above }
+    }
+
+    /// `rg8_slope(slope).cmp(&code)`.
+    #[inline]
+    fn compare(&self, slope: f32, code: u8) -> std::cmp::Ordering {
+        if slope > self.above[code as usize] {
+            std::cmp::Ordering::Greater
+        } else if slope < self.below[code as usize] {
+            std::cmp::Ordering::Less
+        } else {
+            rg8_slope(slope).cmp(&code)
         }
     }
 }
