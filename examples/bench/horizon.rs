@@ -68,10 +68,11 @@ fn brute_force_rows() {
 /// Throughput at the sizes, f16 output, and the peak memory of the larger bake.
 fn throughput_rows() {
     for (size, dirs, runs) in [(1024u32, 16u32, 3usize), (2048, 64, 2)] {
-        let before_input = rss_mib();
         let hf = terrain(size);
         let s = HorizonSettings { directions: dirs, edge: Edge::Clamp, ..Default::default() };
-        // The peak of the bakes alone, with the input held (earlier phases freed their memory).
+        // The peak of the bakes alone: above what the process holds with the input made (the
+        // allocator may keep memory that making it or earlier rows freed).
+        let base = rss_mib();
         let reset = reset_peak_rss();
         let (t, out) = best_of(runs, || horizon::bake(&hf, &s, &|_, _| {}).expect("valid settings"));
         let peak = peak_rss_mib().filter(|_| reset);
@@ -85,19 +86,39 @@ fn throughput_rows() {
             td / t / 1e8
         );
         if size == 2048 {
-            let input_mib = size as f64 * size as f64 * 4.0 / (1 << 20) as f64;
-            let target = out_mib + 2.0 * input_mib;
-            match (peak, before_input) {
-                (Some(peak), Some(base)) => println!(
-                    "| peak memory of the bake | {size}²×{dirs} | {:.0} MiB above the {base:.0} MiB the process held before the input | output {out_mib:.0} MiB, input {input_mib:.0} MiB (f32) | target ≤ output + 2× input = {target:.0} MiB | {:.3}× of target |",
-                    peak - base,
-                    (peak - base) / target
-                ),
-                _ => println!(
-                    "| peak memory of the bake | {size}²×{dirs} | — | — | not measurable here (needs Linux /proc/self/clear_refs) | — |"
-                ),
-            }
+            memory_row("rg16f", size, dirs, peak.zip(base).map(|(p, b)| p - b), out_mib);
         }
+    }
+    // The other formats: one bake each.
+    for format in [HorizonFormat::Rg8Unorm, HorizonFormat::Rg32Float] {
+        let (size, dirs) = (2048u32, 64u32);
+        let hf = terrain(size);
+        let s = HorizonSettings { directions: dirs, edge: Edge::Clamp, format, ..Default::default() };
+        let base = rss_mib();
+        let reset = reset_peak_rss();
+        let out = horizon::bake(&hf, &s, &|_, _| {}).expect("valid settings");
+        let peak = peak_rss_mib().filter(|_| reset);
+        let out_mib = out.texture.levels[0].len() as f64 / (1 << 20) as f64;
+        drop(out);
+        let name = if format == HorizonFormat::Rg8Unorm { "rg8" } else { "rg32f" };
+        memory_row(name, size, dirs, peak.zip(base).map(|(p, b)| p - b), out_mib);
+    }
+}
+
+/// The peak-memory row of a `size`² bake, from the bake's own peak (MiB above the process with
+/// its input made, if measurable) plus the input.
+fn memory_row(format: &str, size: u32, dirs: u32, bake_peak: Option<f64>, out_mib: f64) {
+    let input_mib = size as f64 * size as f64 * 4.0 / (1 << 20) as f64;
+    let target = out_mib + 2.0 * input_mib;
+    match bake_peak {
+        Some(bake) => println!(
+            "| peak memory of the bake, {format} | {size}²×{dirs} | {:.0} MiB: the bake's {bake:.0} MiB + the input | output {out_mib:.0} MiB, input {input_mib:.0} MiB (f32) | target ≤ output + 2× input = {target:.0} MiB | {:.3}× of target |",
+            bake + input_mib,
+            (bake + input_mib) / target
+        ),
+        None => println!(
+            "| peak memory of the bake, {format} | {size}²×{dirs} | — | — | not measurable here (needs Linux /proc/self/clear_refs) | — |"
+        ),
     }
 }
 
