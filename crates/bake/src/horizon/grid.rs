@@ -53,7 +53,7 @@ impl Grid {
 /// after they are freed; it raises that threshold (up to 32 MiB) as large blocks are freed, so a
 /// 16 MiB grid freed before the bake's last slice is written would still count in its peak. A
 /// capacity above the largest threshold is always mapped on its own; capacity never written is
-/// never resident.
+/// never resident. Grids under 512 KiB keep their exact size: there it does not matter.
 fn returnable(len: usize) -> Vec<f32> {
     const FLOOR: usize = (32 << 20) / std::mem::size_of::<f32>() + 1024;
     Vec::with_capacity(if len >= FLOOR / 64 { len.max(FLOOR) } else { len })
