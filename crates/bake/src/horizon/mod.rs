@@ -30,6 +30,7 @@ mod grid;
 mod hull;
 mod near;
 pub mod reference;
+mod rg8;
 mod steps;
 mod sweep;
 
@@ -254,8 +255,6 @@ fn direction(
         }
     };
 
-    let rg8_guards = if format == HorizonFormat::Rg8Unorm { Rg8Guards::new() } else { Rg8Guards::default() };
-
     // Near field, and the exact traces that stand in for the far field.
     let mut best_s = vec![0.0f32; g.w];
     let mut best_t = vec![0.0f32; g.w];
@@ -346,7 +345,7 @@ fn direction(
             HorizonFormat::Rg16Float => best.0 > half::f16::from_le_bytes([texel[0], texel[1]]).to_f32(),
             HorizonFormat::Rg32Float => best.0 > f32::from_le_bytes([texel[0], texel[1], texel[2], texel[3]]),
             // An 8-bit slope cannot tell a tie: then the near pass is traced again for this texel.
-            HorizonFormat::Rg8Unorm => match rg8_guards.compare(best.0, texel[0]) {
+            HorizonFormat::Rg8Unorm => match rg8::compare(best.0, texel[0]) {
                 std::cmp::Ordering::Greater => true,
                 std::cmp::Ordering::Less => false,
                 std::cmp::Ordering::Equal => {
@@ -380,8 +379,8 @@ const EXIT_TRACE: f64 = 64.0;
 fn encode(format: HorizonFormat, slope: f32, dist: f32, distance_scale: f32, out: &mut [u8]) {
     match format {
         HorizonFormat::Rg8Unorm => {
-            out[0] = rg8_slope(slope);
-            out[1] = unorm(dist / distance_scale);
+            out[0] = rg8::code(slope);
+            out[1] = rg8::unorm(dist / distance_scale);
         }
         HorizonFormat::Rg16Float => {
             let s = half::f16::from_f32(slope.clamp(OPEN_SKY_SLOPE, -OPEN_SKY_SLOPE));
@@ -392,46 +391,6 @@ fn encode(format: HorizonFormat, slope: f32, dist: f32, distance_scale: f32, out
         HorizonFormat::Rg32Float => {
             out[..4].copy_from_slice(&slope.to_le_bytes());
             out[4..8].copy_from_slice(&dist.to_le_bytes());
-        }
-    }
-}
-
-/// `x` in [0, 1] as an 8-bit unorm (clamped).
-fn unorm(x: f32) -> u8 {
-    (x.clamp(0.0, 1.0) * 255.0).round() as u8
-}
-
-/// The 8-bit code of slope `tan β`: `β / π + 0.5`.
-fn rg8_slope(slope: f32) -> u8 {
-    unorm(slope.atan() / std::f32::consts::PI + 0.5)
-}
-
-/// Per 8-bit slope code, slopes safely below and above the slopes that round to it, so most
-/// comparisons of a slope with a stored code need no `atan`.
-#[derive(Default)]
-struct Rg8Guards {
-    below: Vec<f32>,
-    above: Vec<f32>,
-}
-
-impl Rg8Guards {
-    fn new() -> Rg8Guards {
-        // Code c holds β/π + 0.5 within half a step of c/255; widened by 1e-5 rad for rounding.
-        let edge = |c: f64, pad: f64| (((c / 255.0) - 0.5) * std::f64::consts::PI + pad).tan() as f32;
-        let below = (0..256).map(|c| if c == 0 { f32::NEG_INFINITY } else { edge(c as f64 - 0.5, -1e-5) }).collect();
-        let above = (0..256).map(|c| if c == 255 { f32::INFINITY } else { edge(c as f64 + 0.5, 1e-5) }).collect();
-        Rg8Guards { below, above }
-    }
-
-    /// `rg8_slope(slope).cmp(&code)`.
-    #[inline]
-    fn compare(&self, slope: f32, code: u8) -> std::cmp::Ordering {
-        if slope > self.above[code as usize] {
-            std::cmp::Ordering::Greater
-        } else if slope < self.below[code as usize] {
-            std::cmp::Ordering::Less
-        } else {
-            rg8_slope(slope).cmp(&code)
         }
     }
 }
