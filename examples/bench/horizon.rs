@@ -65,8 +65,10 @@ fn brute_force_rows() {
     );
 }
 
-/// Throughput at the sizes, f16 output, and the peak memory of the larger bake.
+/// Throughput at the sizes, f16 output, and the peak memory of the larger bake; the other
+/// formats against f16 at the smaller size, and their peak memory.
 fn throughput_rows() {
+    let mut t_rg16f = 0.0;
     for (size, dirs, runs) in [(1024u32, 16u32, 3usize), (2048, 64, 2)] {
         let hf = terrain(size);
         let s = HorizonSettings { directions: dirs, edge: Edge::Clamp, ..Default::default() };
@@ -87,7 +89,22 @@ fn throughput_rows() {
         );
         if size == 2048 {
             memory_row("rg16f", size, dirs, peak.zip(base).map(|(p, b)| p - b), out_mib);
+        } else {
+            t_rg16f = t;
         }
+    }
+    for format in [HorizonFormat::Rg8Unorm, HorizonFormat::Rg32Float] {
+        let (size, dirs) = (1024u32, 16u32);
+        let hf = terrain(size);
+        let s = HorizonSettings { directions: dirs, edge: Edge::Clamp, format, ..Default::default() };
+        let (t, _) = best_of(3, || horizon::bake(&hf, &s, &|_, _| {}).expect("valid settings"));
+        let td = size as f64 * size as f64 * dirs as f64;
+        println!(
+            "| horizon bake, {} | {size}²×{dirs}, clamp | {t:.2} s | {:.2e} texel-dir/s | rg16f {t_rg16f:.2} s (above) | {:.2}× its time |",
+            format_name(format),
+            td / t,
+            t / t_rg16f
+        );
     }
     // The other formats: one bake each.
     for format in [HorizonFormat::Rg8Unorm, HorizonFormat::Rg32Float] {
@@ -100,8 +117,16 @@ fn throughput_rows() {
         let peak = peak_rss_mib().filter(|_| reset);
         let out_mib = out.texture.levels[0].len() as f64 / (1 << 20) as f64;
         drop(out);
-        let name = if format == HorizonFormat::Rg8Unorm { "rg8" } else { "rg32f" };
-        memory_row(name, size, dirs, peak.zip(base).map(|(p, b)| p - b), out_mib);
+        memory_row(format_name(format), size, dirs, peak.zip(base).map(|(p, b)| p - b), out_mib);
+    }
+}
+
+/// The name of `format` on the command line.
+fn format_name(format: HorizonFormat) -> &'static str {
+    match format {
+        HorizonFormat::Rg8Unorm => "rg8",
+        HorizonFormat::Rg16Float => "rg16f",
+        HorizonFormat::Rg32Float => "rg32f",
     }
 }
 
