@@ -348,6 +348,8 @@ fn direction(
             HorizonFormat::Rg8Unorm => match rg8::compare(best.0, texel[0]) {
                 std::cmp::Ordering::Greater => true,
                 std::cmp::Ordering::Less => false,
+                // The same slope byte and the same distance byte: either way, the same texel.
+                std::cmp::Ordering::Equal if rg8::unorm(best.1 / distance_scale) == texel[1] => false,
                 std::cmp::Ordering::Equal => {
                     let trace = |lo: f64, hi: f64| steps.trace(g, wrap, row, col, lo, hi);
                     let mut near = trace(0.0, near_reach).unwrap_or((f32::NEG_INFINITY, 0.0));
