@@ -101,7 +101,7 @@ fn throughput_rows() {
         let td = size as f64 * size as f64 * dirs as f64;
         println!(
             "| horizon bake, {} | {size}²×{dirs}, clamp | {t:.2} s | {:.2e} texel-dir/s | rg16f {t_rg16f:.2} s (above) | {:.2}× its time |",
-            format_name(format),
+            format.texture_format().short_name(),
             td / t,
             t / t_rg16f
         );
@@ -117,16 +117,7 @@ fn throughput_rows() {
         let peak = peak_rss_mib().filter(|_| reset);
         let out_mib = out.texture.levels[0].len() as f64 / (1 << 20) as f64;
         drop(out);
-        memory_row(format_name(format), size, dirs, peak.zip(base).map(|(p, b)| p - b), out_mib);
-    }
-}
-
-/// The name of `format` on the command line.
-fn format_name(format: HorizonFormat) -> &'static str {
-    match format {
-        HorizonFormat::Rg8Unorm => "rg8",
-        HorizonFormat::Rg16Float => "rg16f",
-        HorizonFormat::Rg32Float => "rg32f",
+        memory_row(format.texture_format().short_name(), size, dirs, peak.zip(base).map(|(p, b)| p - b), out_mib);
     }
 }
 

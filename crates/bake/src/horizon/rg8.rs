@@ -25,7 +25,7 @@ fn round_byte(y: f32) -> u8 {
 }
 
 /// The 8-bit code of slope `tan β` by its definition, `unorm(β / π + 0.5)`.
-pub(crate) fn by_formula(slope: f32) -> u8 {
+fn by_formula(slope: f32) -> u8 {
     unorm(slope.atan() / std::f32::consts::PI + 0.5)
 }
 
