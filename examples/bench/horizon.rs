@@ -93,9 +93,9 @@ fn throughput_rows() {
             t_rg16f = t;
         }
     }
+    let (size, dirs) = (1024u32, 16u32);
+    let hf = terrain(size);
     for format in [HorizonFormat::Rg8Unorm, HorizonFormat::Rg32Float] {
-        let (size, dirs) = (1024u32, 16u32);
-        let hf = terrain(size);
         let s = HorizonSettings { directions: dirs, edge: Edge::Clamp, format, ..Default::default() };
         let (t, _) = best_of(3, || horizon::bake(&hf, &s, &|_, _| {}).expect("valid settings"));
         let td = size as f64 * size as f64 * dirs as f64;
