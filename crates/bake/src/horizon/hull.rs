@@ -108,19 +108,26 @@ impl SuffixHull {
 
 /// Upper hull of samples inserted left to right, with an undo log so the most recent
 /// insertions can be taken back in reverse order (a prefix that shrinks one sample at a time).
+///
+/// An insertion never destroys the vertices it removes: it shortens the live stack and
+/// overwrites one slot, so taking it back restores that slot and the old length in `O(1)`,
+/// however many vertices it had removed.
 #[derive(Default)]
 pub(crate) struct PrefixHull {
+    /// The live hull is `pts[..len]`; slots beyond it hold vertices an insertion hid.
     pts: Vec<Pt>,
-    popped: Vec<Pt>,
-    log: Vec<u32>,
+    len: usize,
+    /// Per insertion: the length before it and the vertex its sample overwrote.
+    log: Vec<(u32, Pt)>,
 }
 
+/// Log entry of a sample outside the map (nothing inserted).
 const SKIPPED: u32 = u32::MAX;
 
 impl PrefixHull {
     pub fn clear(&mut self) {
         self.pts.clear();
-        self.popped.clear();
+        self.len = 0;
         self.log.clear();
     }
 
@@ -129,36 +136,31 @@ impl PrefixHull {
     #[inline]
     pub fn push_back(&mut self, q: Option<Pt>) {
         let Some(q) = q else {
-            self.log.push(SKIPPED);
+            self.log.push((SKIPPED, Pt { x: 0.0, h: 0.0 }));
             return;
         };
-        let mut n = 0;
-        while self.pts.len() >= 2 {
-            let a = self.pts[self.pts.len() - 1];
-            let b = self.pts[self.pts.len() - 2];
-            if not_above(b, a, q) {
-                self.popped.push(a);
-                self.pts.pop();
-                n += 1;
-            } else {
-                break;
-            }
+        let mut n = self.len;
+        while n >= 2 && not_above(self.pts[n - 2], self.pts[n - 1], q) {
+            n -= 1;
         }
-        self.pts.push(q);
-        self.log.push(n);
+        let saved = if n < self.pts.len() {
+            std::mem::replace(&mut self.pts[n], q)
+        } else {
+            self.pts.push(q);
+            q
+        };
+        self.log.push((self.len as u32, saved));
+        self.len = n + 1;
     }
 
     /// Takes back the most recent insertion.
     #[inline]
     pub fn undo(&mut self) {
         match self.log.pop() {
-            None | Some(SKIPPED) => {}
-            Some(n) => {
-                self.pts.pop();
-                for _ in 0..n {
-                    let p = self.popped.pop().expect("undo log matches the popped samples");
-                    self.pts.push(p);
-                }
+            None | Some((SKIPPED, _)) => {}
+            Some((len, saved)) => {
+                self.pts[self.len - 1] = saved;
+                self.len = len as usize;
             }
         }
     }
@@ -166,7 +168,7 @@ impl PrefixHull {
     /// The vertex of greatest slope from `o`, walking from `hint` (updated).
     #[inline]
     pub fn tangent(&self, o: Pt, hint: &mut usize) -> Option<Hit> {
-        walk(&self.pts, o, hint)
+        walk(&self.pts[..self.len], o, hint)
     }
 }
 
@@ -214,5 +216,40 @@ mod tests {
             p.undo();
         }
         assert!(p.tangent(Pt { x: 0.0, h: 0.0 }, &mut 0).is_none());
+    }
+
+    #[test]
+    fn prefix_undo_restores_the_hull_under_any_interleaving() {
+        // Pushes and undos in a pseudo-random order; after each step the hull must answer as
+        // the brute force over the samples currently inserted.
+        let mut hull = PrefixHull::default();
+        let mut live: Vec<Option<Pt>> = Vec::new();
+        let mut x = 10.0f32;
+        for step in 0..3000u32 {
+            let r = step.wrapping_mul(2246822519).rotate_left(7) % 10;
+            if r < 4 && !live.is_empty() {
+                hull.undo();
+                live.pop();
+            } else {
+                let q = (r != 9).then(|| Pt { x, h: pseudo(step) * 3.0 + (x * 0.1).sin() * 5.0 });
+                x += 1.0;
+                hull.push_back(q);
+                live.push(q);
+                if r == 8 {
+                    // The next undo takes this sample back; its x is reused by the next push.
+                    hull.undo();
+                    live.pop();
+                    x -= 1.0;
+                }
+            }
+            let pts: Vec<Pt> = live.iter().flatten().copied().collect();
+            for oh in [-10.0f32, 2.0, 30.0] {
+                let o = Pt { x: 0.0, h: oh };
+                match hull.tangent(o, &mut 0) {
+                    Some(h) => assert!((h.rise / h.run - brute(&pts, o)).abs() < 1e-5, "step {step}"),
+                    None => assert!(pts.is_empty(), "step {step}: hull empty, {} samples live", pts.len()),
+                }
+            }
+        }
     }
 }
