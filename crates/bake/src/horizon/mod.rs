@@ -307,7 +307,11 @@ fn direction(
     // through a texel is its ray, so the hull's tangent is already the exact answer.
     let exact_lines = m == 0.0 || m.abs() == 1.0;
     let end_cols = if end.is_finite() { end.floor() as usize } else { usize::MAX };
-    sweep::far_field(g, &line, &mut |row, col, hits| {
+    // The texels a line will finish a few columns on are fetched early: along a line they are
+    // a row apart in the output, which a power-of-two width maps to few cache sets.
+    let out_addr = out.as_ptr() as usize;
+    let prefetch = |row: usize, col: usize| prefetch(out_addr + at(col, row));
+    let mut finish = |row: usize, col: usize, hits: [Option<sweep::Hit>; 2]| {
         if traced(exit(row), col) {
             return;
         }
@@ -363,7 +367,20 @@ fn direction(
         if replace {
             encode(format, best.0, best.1, distance_scale, texel);
         }
-    });
+    };
+    sweep::far_field(g, &line, &mut finish, &prefetch);
+}
+
+/// Asks the processor to bring the cache line at `addr` closer; no effect on results.
+#[inline(always)]
+fn prefetch(addr: usize) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch never faults and has no effect on memory, whatever the address.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch(addr as *const i8, std::arch::x86_64::_MM_HINT_T0)
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = addr;
 }
 
 /// Rows of a transposed orientation encoded before they are written out together.

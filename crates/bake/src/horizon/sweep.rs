@@ -39,8 +39,14 @@ pub(crate) struct Line<'a> {
 
 /// Runs the far field of one direction. `finish(row, col, [below, above])` is called once per
 /// texel that some line brackets, with the tangent vertices found on the line below and above
-/// it, as soon as both are known.
-pub(crate) fn far_field(g: &Grid, line: &Line, finish: &mut impl FnMut(usize, usize, [Option<Hit>; 2])) {
+/// it, as soon as both are known. `prefetch(row, col)` is told, [`AHEAD`] columns early, of a
+/// texel a line is about to reach, so that whatever `finish` reads for it can be fetched.
+pub(crate) fn far_field(
+    g: &Grid,
+    line: &Line,
+    finish: &mut impl FnMut(usize, usize, [Option<Hit>; 2]),
+    prefetch: &impl Fn(usize, usize),
+) {
     if line.reach.is_some_and(|r| r <= line.near) {
         return;
     }
@@ -49,14 +55,14 @@ pub(crate) fn far_field(g: &Grid, line: &Line, finish: &mut impl FnMut(usize, us
         // The lines form a cycle on the torus: line -1 (= h - 1) opens it, querying only the
         // texels above it, and line h - 1 closes it, querying only those below.
         for k in -1..g.h as i64 {
-            sweeper.run(g, line, k, [k < g.h as i64 - 1, k >= 0], finish);
+            sweeper.run(g, line, k, [k < g.h as i64 - 1, k >= 0], finish, prefetch);
         }
     } else {
         let span = line.steps.m * (g.w as f64 - 1.0);
         let lo = (-span.max(0.0)).floor() as i64 - 1;
         let hi = g.h as i64 + (-span).max(0.0).ceil() as i64 + 1;
         for k in lo..=hi {
-            sweeper.run(g, line, k, [true, true], finish);
+            sweeper.run(g, line, k, [true, true], finish, prefetch);
         }
     }
     for (col, p) in sweeper.pending.iter().enumerate() {
@@ -65,6 +71,9 @@ pub(crate) fn far_field(g: &Grid, line: &Line, finish: &mut impl FnMut(usize, us
         }
     }
 }
+
+/// How many columns ahead of the sweep texels are announced to `prefetch`.
+const AHEAD: usize = 8;
 
 /// A texel whose line below has answered and whose line above has not yet.
 #[derive(Clone, Copy, Debug)]
@@ -134,6 +143,7 @@ impl Sweeper {
         k: i64,
         slots: [bool; 2],
         finish: &mut impl FnMut(usize, usize, [Option<Hit>; 2]),
+        prefetch: &impl Fn(usize, usize),
     ) {
         let (w, near) = (g.w, line.near);
         self.suffix.clear();
@@ -154,6 +164,7 @@ impl Sweeper {
                             self.suffix.push_front(p);
                         }
                     }
+                    Self::ahead(g, line, k, i, prefetch);
                     self.texels(g, line, k, i, slots, finish);
                 }
             }
@@ -187,10 +198,26 @@ impl Sweeper {
                             self.suffix.push_front(p);
                         }
                     }
+                    Self::ahead(g, line, k, i, prefetch);
                     self.texels(g, line, k, i, slots, finish);
                 }
             }
         }
+    }
+
+    /// Announces the texel line `k` will reach [`AHEAD`] columns from now.
+    #[inline(always)]
+    fn ahead(g: &Grid, line: &Line, k: i64, i: usize, prefetch: &impl Fn(usize, usize)) {
+        let Some(c) = i.checked_sub(AHEAD) else { return };
+        let j = k + line.steps.col_r[c] as i64;
+        let j = if line.wrap {
+            wrap_index(j, g.h as i64)
+        } else if (0..g.h as i64).contains(&j) {
+            j as usize
+        } else {
+            return;
+        };
+        prefetch(j, c);
     }
 
     /// Queries line `k` at column `i` for the two texels it brackets, each from its own centre
