@@ -178,7 +178,7 @@ enum Command {
         /// attributes).
         #[arg(long, value_name = "OUT")]
         gltf: Option<PathBuf>,
-        /// Write raw little-endian f32 in [slice][row][col] order (channels interleaved last
+        /// Write raw little-endian f32 in `[slice][row][col]` order (channels interleaved last
         /// when no channel is picked).
         #[arg(long)]
         raw: bool,

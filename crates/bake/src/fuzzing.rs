@@ -27,7 +27,7 @@ pub fn manifest(data: &[u8]) {
 }
 
 /// A bundle directory whose `bundle.ron` is `data`, beside one valid 4×4 R8 KTX2 payload
-/// `t.ktx2`: [`hikage_bundle::validate`], then [`hikage_bundle::Bundle::open`] and every asset
+/// `t.ktx2`: [`hikage_bundle::validate()`], then [`hikage_bundle::Bundle::open`] and every asset
 /// read.
 pub fn bundle(data: &[u8]) {
     let dir = scratch().join("bundle");

@@ -6,17 +6,17 @@
 //! and `d` is the `t` that attains it (DESIGN.md "Horizon and distance maps").
 //!
 //! Design, chosen to meet the accuracy gates on rough terrain at line-sweep speed:
-//! - near field ([`near`]): the first `near_field` texels of every ray exactly, at every
+//! - near field (`near`): the first `near_field` texels of every ray exactly, at every
 //!   grid-line crossing, as a vectorised stencil over whole rows;
-//! - far field ([`sweep`]): the rest from a line sweep with convex-hull stacks, each of the two
+//! - far field (`sweep`): the rest from a line sweep with convex-hull stacks, each of the two
 //!   lines around a texel queried by a tangent from the texel's own height; the texel's own ray
-//!   is then sampled exactly around the two tangent columns ([`steps`]), so a far horizon is
+//!   is then sampled exactly around the two tangent columns (`steps`), so a far horizon is
 //!   always a real sample. On axis and diagonal directions the line through a texel is its ray
 //!   and the tangent is already exact.
 //!
 //! The near field is encoded into the output first; the sweep finishes each texel as soon as
 //! both of its lines have answered and overwrites the texel when the far field is steeper. So
-//! the working memory is one padded, oriented copy of the heights ([`grid`]) plus `O(W)` per
+//! the working memory is one padded, oriented copy of the heights (`grid`) plus `O(W)` per
 //! thread. (An 8-bit slope is too coarse to tell which is steeper when both round to the same
 //! code; that texel's near field is then traced again.) Direction 0 is baked last, after the
 //! last copy is freed, from bands of rows: its slice is not resident while a copy is.
