@@ -238,5 +238,14 @@ fn get(g: &Grid, wrap: bool, r: i64, c: i64) -> f32 {
 
 #[inline(always)]
 pub(crate) fn wrap_index(i: i64, n: i64) -> usize {
-    if i >= 0 && i < n { i as usize } else { i.rem_euclid(n) as usize }
+    // Rays are followed a few map lengths at most: one period either way needs no division.
+    if i >= 0 && i < n {
+        i as usize
+    } else if i >= n && i < 2 * n {
+        (i - n) as usize
+    } else if i < 0 && i >= -n {
+        (i + n) as usize
+    } else {
+        i.rem_euclid(n) as usize
+    }
 }

@@ -106,7 +106,7 @@ impl Sweeper {
         let f = line.steps.col_f[c];
         let (r0, r1, col) = if line.wrap {
             let h = g.h as i64;
-            (wrap_index(r, h), wrap_index(r + 1, h), if c < g.w { c } else { c % g.w })
+            (wrap_index(r, h), wrap_index(r + 1, h), wrap_index(c as i64, g.w as i64))
         } else {
             if c >= g.w || r < 0 || r >= g.h as i64 || (r + 1 >= g.h as i64 && f > 0.0) {
                 return None;
