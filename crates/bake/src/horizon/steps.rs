@@ -249,3 +249,17 @@ pub(crate) fn wrap_index(i: i64, n: i64) -> usize {
         i.rem_euclid(n) as usize
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::wrap_index;
+
+    #[test]
+    fn wrap_index_is_the_euclidean_remainder() {
+        for n in [1i64, 2, 7, 64] {
+            for i in -5 * n - 3..5 * n + 3 {
+                assert_eq!(wrap_index(i, n), i.rem_euclid(n) as usize, "{i} mod {n}");
+            }
+        }
+    }
+}
