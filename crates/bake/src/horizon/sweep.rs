@@ -209,15 +209,15 @@ impl Sweeper {
     #[inline(always)]
     fn ahead(g: &Grid, line: &Line, k: i64, i: usize, prefetch: &impl Fn(usize, usize)) {
         let Some(c) = i.checked_sub(AHEAD) else { return };
-        let j = k + line.steps.col_r[c] as i64;
-        let j = if line.wrap {
-            wrap_index(j, g.h as i64)
-        } else if (0..g.h as i64).contains(&j) {
-            j as usize
-        } else {
-            return;
-        };
-        prefetch(j, c);
+        if let Some(j) = Self::map_row(g, line, k + line.steps.col_r[c] as i64) {
+            prefetch(j, c);
+        }
+    }
+
+    /// Row `j` of the map: wrapped on the torus, or `None` off a clamped map.
+    #[inline(always)]
+    fn map_row(g: &Grid, line: &Line, j: i64) -> Option<usize> {
+        if line.wrap { Some(wrap_index(j, g.h as i64)) } else { (0..g.h as i64).contains(&j).then_some(j as usize) }
     }
 
     /// Queries line `k` at column `i` for the two texels it brackets, each from its own centre
@@ -240,13 +240,7 @@ impl Sweeper {
             if !slots[slot] || (slot == 1 && on_line) {
                 continue;
             }
-            let j = if line.wrap {
-                wrap_index(j, g.h as i64)
-            } else if (0..g.h as i64).contains(&j) {
-                j as usize
-            } else {
-                continue;
-            };
+            let Some(j) = Self::map_row(g, line, j) else { continue };
             let o = Pt { x: i as f32, h: g.at(j, i) };
             let [hs, hp] = &mut self.hints[slot];
             let best = match (self.suffix.tangent(o, hs), self.prefix.tangent(o, hp)) {
