@@ -12,9 +12,9 @@
 //! - [`Tracer::Combined`]: the depth-map estimate, pulled back by a margin, as the start of a
 //!   max-mip traversal from a low level.
 //!
-//! Shadows use the same maps toward the light ([`ReliefMaps::lit`]); ambient occlusion is the visibility
-//! over the sampled directions ([`ReliefMaps::ambient_occlusion`]). Every function here is mirrored line by
-//! line in the WGSL so the GPU can be checked against it.
+//! Shadows use the same maps toward the light ([`ReliefMaps::lit`]); ambient occlusion is the
+//! visibility over the sampled directions ([`ReliefMaps::ambient_occlusion`]). Every function
+//! here is mirrored line by line in the WGSL so the GPU can be checked against it.
 
 use hikage_bundle::relief::{MaxMip, ReliefDirections, ReliefRay, first_hit_maxmip};
 use hikage_bundle::{AssetKind, ReliefSettings, Settings, TextureData};
