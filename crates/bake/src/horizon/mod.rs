@@ -310,7 +310,7 @@ fn direction(
     // The texels a line will finish a few columns on are fetched early: along a line they are
     // a row apart in the output, which a power-of-two width maps to few cache sets.
     let out_addr = out.as_ptr() as usize;
-    let prefetch = |row: usize, col: usize| prefetch(out_addr + at(col, row));
+    let fetch_texel = |row: usize, col: usize| prefetch(out_addr + at(col, row));
     let mut finish = |row: usize, col: usize, hits: [Option<sweep::Hit>; 2]| {
         if traced(exit(row), col) {
             return;
@@ -368,7 +368,7 @@ fn direction(
             encode(format, best.0, best.1, distance_scale, texel);
         }
     };
-    sweep::far_field(g, &line, &mut finish, &prefetch);
+    sweep::far_field(g, &line, &mut finish, &fetch_texel);
 }
 
 /// Asks the processor to bring the cache line at `addr` closer; no effect on results.
