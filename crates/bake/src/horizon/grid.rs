@@ -75,6 +75,11 @@ impl Orientation {
         Orientation { transpose: true, flip: true },
     ];
 
+    /// Position in [`ALL`](Self::ALL).
+    pub fn index(self) -> usize {
+        2 * self.transpose as usize + self.flip as usize
+    }
+
     /// The orientation and row slope `m` for azimuth `phi` (radians, texel space, from +u
     /// toward +v): the canonical ray steps `(+1 column, m rows)`.
     pub fn for_azimuth(phi: f64) -> (Orientation, f64) {

@@ -31,6 +31,7 @@ mod hull;
 mod near;
 pub mod reference;
 mod rg8;
+mod schedule;
 mod steps;
 mod sweep;
 
@@ -161,23 +162,17 @@ pub fn bake(
     let slice_len = w * h * texel_bytes;
     // Directions grouped by orientation, so each canonical grid is built once per group.
     // Direction 0 is held back: see below.
-    for orientation in Orientation::ALL {
-        let dirs: Vec<usize> = (1..d)
-            .filter(|&k| Orientation::for_azimuth(std::f64::consts::TAU * k as f64 / d as f64).0 == orientation)
-            .collect();
-        if dirs.is_empty() {
-            continue;
-        }
-        let grid = orientation.grid((w, h), &hf.samples, hf.height_scale, (sx, sy), pad, wrap);
-        let slices: Vec<(usize, &mut [u8])> =
-            bytes.chunks_mut(slice_len).enumerate().filter(|(k, _)| dirs.contains(k)).collect();
-        slices.into_par_iter().for_each(|(k, slice)| {
-            let phi = std::f64::consts::TAU * k as f64 / d as f64;
-            let (_, m) = Orientation::for_azimuth(phi);
-            direction(&grid, orientation, (w, h), m, settings, format, distance_scale, slice);
-            progress(done.fetch_add(1, Ordering::Relaxed) + 1, d as u64);
-        });
+    let orientation_of = |k: usize| Orientation::for_azimuth(std::f64::consts::TAU * k as f64 / d as f64).0;
+    let mut work: Vec<Vec<(usize, &mut [u8])>> = Orientation::ALL.iter().map(|_| Vec::new()).collect();
+    for (k, slice) in bytes.chunks_mut(slice_len).enumerate().skip(1) {
+        work[orientation_of(k).index()].push((k, slice));
     }
+    let build = |g: usize| Orientation::ALL[g].grid((w, h), &hf.samples, hf.height_scale, (sx, sy), pad, wrap);
+    schedule::run(work, rayon::current_num_threads(), &build, &|g, (k, slice): (usize, &mut [u8]), grid| {
+        let (_, m) = Orientation::for_azimuth(std::f64::consts::TAU * k as f64 / d as f64);
+        direction(grid, Orientation::ALL[g], (w, h), m, settings, format, distance_scale, slice);
+        progress(done.fetch_add(1, Ordering::Relaxed) + 1, d as u64);
+    });
     // Direction 0 (φ = 0) comes last, after the last whole-map copy is gone: its rays are the
     // map's rows, so a band of rows is a map of its own and needs only a band-sized copy. Its
     // slice is untouched, hence not resident, while a whole-map copy is alive, so the bake's
