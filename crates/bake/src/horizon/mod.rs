@@ -256,29 +256,36 @@ fn direction(
     // A transposed orientation's rows are columns of the output: they are encoded into a tile of
     // TILE rows first and written out a column run at a time, not a texel per cache line.
     let mut tile = vec![0u8; if orientation.transpose { TILE * g.w * texel_bytes } else { 0 }];
+    let mut halves = Vec::new();
     for row in 0..g.h {
         near::row(g, &taps, row, &mut best_s, &mut best_t);
         let exit = exit(row);
-        for col in 0..g.w {
-            let mut best = (best_s[col], best_t[col]);
-            if end > near_f {
+        if end > near_f {
+            for col in 0..g.w {
+                let mut best = (best_s[col], best_t[col]);
                 let trace = |lo: f64, hi: f64| steps.trace(g, wrap, row, col, lo, hi);
                 if traced(exit, col) {
                     steeper(&mut best, trace(near_f, end.min(exit)));
                 } else if end.is_finite() && end.fract() > 0.0 {
                     // Row crossings past the last whole column of a fractional reach.
                     steeper(&mut best, trace(end.floor().max(near_f), end));
+                } else {
+                    continue;
                 }
+                (best_s[col], best_t[col]) = best;
             }
-            let (mut s, mut t) = best;
-            if s < -1.0e20 {
-                s = OPEN_SKY_SLOPE;
-                t = 0.0;
-            }
-            let o = if tile.is_empty() { at(col, row) } else { ((row % TILE) * g.w + col) * texel_bytes };
-            let dst = if tile.is_empty() { &mut out[o..o + texel_bytes] } else { &mut tile[o..o + texel_bytes] };
-            encode(format, s, t, distance_scale, dst);
         }
+        // The row's texels are consecutive in the tile, or in the output (right to left when the
+        // orientation mirrors columns).
+        let row_bytes = g.w * texel_bytes;
+        let reversed = tile.is_empty() && orientation.flip;
+        let dst = if tile.is_empty() {
+            let o = at(0, row).min(at(g.w - 1, row));
+            &mut out[o..o + row_bytes]
+        } else {
+            &mut tile[(row % TILE) * row_bytes..][..row_bytes]
+        };
+        encode_row(format, &mut best_s, &mut best_t, distance_scale, dst, reversed, &mut halves);
         if !tile.is_empty() && (row % TILE == TILE - 1 || row + 1 == g.h) {
             let first = row - row % TILE;
             for col in 0..g.w {
@@ -388,6 +395,50 @@ const ROW_BAND: usize = 64;
 /// the lines around the texel leave the map at other columns than its ray (up to `1/|m|`
 /// columns apart), so their tangent columns are poor candidates.
 const EXIT_TRACE: f64 = 64.0;
+
+/// Writes a row of texels (`tan β`, `d`) in `format` into `out` (exactly `s.len()` texels), in
+/// reverse order when `reversed`. A slope of `-∞` (no sample) becomes the open-sky value. Half
+/// floats are converted a row at a time (F16C where the processor has it); `halves` is scratch.
+fn encode_row(
+    format: HorizonFormat,
+    s: &mut [f32],
+    t: &mut [f32],
+    distance_scale: f32,
+    out: &mut [u8],
+    reversed: bool,
+    halves: &mut Vec<half::f16>,
+) {
+    for (s, t) in s.iter_mut().zip(t.iter_mut()) {
+        if *s < -1.0e20 {
+            (*s, *t) = (OPEN_SKY_SLOPE, 0.0);
+        }
+    }
+    let (tb, n) = (format.texture_format().texel_bytes(), s.len());
+    if format != HorizonFormat::Rg16Float {
+        for (i, (&s, &t)) in s.iter().zip(t.iter()).enumerate() {
+            let j = if reversed { n - 1 - i } else { i };
+            encode(format, s, t, distance_scale, &mut out[j * tb..(j + 1) * tb]);
+        }
+        return;
+    }
+    use half::slice::HalfFloatSliceExt;
+    s.iter_mut().for_each(|s| *s = s.clamp(OPEN_SKY_SLOPE, -OPEN_SKY_SLOPE));
+    t.iter_mut().for_each(|t| *t = t.min(-OPEN_SKY_SLOPE));
+    halves.resize(2 * n, half::f16::ZERO);
+    let (hs, ht) = halves.split_at_mut(n);
+    hs.convert_from_f32_slice(s);
+    ht.convert_from_f32_slice(t);
+    let texels = out.chunks_exact_mut(4);
+    let write = |(o, (s, t)): (&mut [u8], (&half::f16, &half::f16))| {
+        o[..2].copy_from_slice(&s.to_le_bytes());
+        o[2..].copy_from_slice(&t.to_le_bytes());
+    };
+    if reversed {
+        texels.rev().zip(hs.iter().zip(ht.iter())).for_each(write);
+    } else {
+        texels.zip(hs.iter().zip(ht.iter())).for_each(write);
+    }
+}
 
 /// Writes one texel (`tan β`, `d`) in `format` into `out` (exactly one texel long).
 fn encode(format: HorizonFormat, slope: f32, dist: f32, distance_scale: f32, out: &mut [u8]) {
