@@ -95,13 +95,13 @@ impl Steps {
     /// off the table of whole columns.
     #[inline]
     pub fn window(&self, g: &Grid, wrap: bool, row: usize, col: usize, lo: usize, hi: usize) -> Option<(f32, f32)> {
-        match self.padded_span(g, row, col, lo as f64, hi).filter(|_| lo < hi && hi < self.col_r.len()) {
-            Some(base) => {
+        if lo < hi && hi < self.col_r.len() {
+            if let Some(base) = self.padded_columns(g, row, col, lo, hi) {
                 let rows = (self.col_dv[lo] as usize + 1, self.col_dv[hi] as usize);
-                self.slope(self.trace_padded(g, base, (lo + 1, hi), rows))
+                return self.slope(self.trace_padded(g, base, (lo + 1, hi), rows));
             }
-            None => self.trace(g, wrap, row, col, lo as f64, hi as f64),
         }
+        self.trace(g, wrap, row, col, lo as f64, hi as f64)
     }
 
     /// `(tan β, d)` of the best (rise, run in columns), `None` when there was no crossing.
@@ -119,8 +119,13 @@ impl Steps {
     #[inline(always)]
     fn padded_span(&self, g: &Grid, row: usize, col: usize, lo: f64, last: usize) -> Option<i64> {
         let last = last.min(self.col_r.len() - 1);
-        let f0 = (lo.max(0.0) as usize).min(last);
-        let (ra, rb) = (self.col_r[f0] as i64, self.col_r[last] as i64);
+        self.padded_columns(g, row, col, (lo.max(0.0) as usize).min(last), last)
+    }
+
+    /// [`padded_span`](Self::padded_span) from whole column `first ≤ last < col_r.len()`.
+    #[inline(always)]
+    fn padded_columns(&self, g: &Grid, row: usize, col: usize, first: usize, last: usize) -> Option<i64> {
+        let (ra, rb) = (self.col_r[first] as i64, self.col_r[last] as i64);
         let (r_lo, r_hi) = (row as i64 + ra.min(rb) - 2, row as i64 + ra.max(rb) + 3);
         let fits = r_lo >= -(g.pad as i64) && r_hi < (g.h + g.pad) as i64 && col + last + 2 < g.stride;
         fits.then(|| g.index(row, col) as i64)
@@ -142,13 +147,13 @@ impl Steps {
                 (rise, run) = (r, du);
             }
         };
-        for du in first..=last {
+        for du in first..last + 1 {
             let i = (base + self.col_r[du] as i64 * stride) as usize + du;
             consider(data[i], data[i + stride as usize], self.col_f[du], du as f32);
         }
         if self.m != 0.0 {
             let step = if self.m < 0.0 { -stride } else { stride };
-            for dv in d0..=d1 {
+            for dv in d0..d1 + 1 {
                 let f = self.row_f[dv];
                 let i = (base + dv as i64 * step) as usize + self.row_c[dv] as usize;
                 // A fraction of 0 is a column crossing, already counted.
