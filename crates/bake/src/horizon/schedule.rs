@@ -42,10 +42,11 @@ pub(crate) fn run<T: Send>(
             let i = next.fetch_add(1, Ordering::Relaxed);
             let Some(item) = items.get(i) else { break };
             let Some((n, g, t)) = lock(item).take() else { continue };
+            // Ends the item even if `build` or `bake` panics, so that no other worker waits
+            // for its group forever and the panic reaches the caller. Dropped after `grid`.
+            let _ended = Ended { grids: &grids, n };
             let grid = grids.acquire(n, || build(g));
             bake(g, t, &grid);
-            drop(grid);
-            grids.release(n);
         }
     };
     rayon::scope(|s| {
@@ -85,6 +86,18 @@ impl Grids {
             lock(&self.slots[n]).take();
             self.ended.notify_all();
         }
+    }
+}
+
+/// Marks an item of group `n` ended when dropped.
+struct Ended<'a> {
+    grids: &'a Grids,
+    n: usize,
+}
+
+impl Drop for Ended<'_> {
+    fn drop(&mut self) {
+        self.grids.release(self.n);
     }
 }
 
@@ -138,5 +151,29 @@ mod tests {
             assert_eq!(built, vec![0, 1, 3, 4, 5], "{threads} threads: each grid built once");
             assert!(most.load(Ordering::SeqCst) <= 2, "{threads} threads: {} grids alive", most.load(Ordering::SeqCst));
         }
+    }
+
+    #[test]
+    fn a_panicking_item_reaches_the_caller_instead_of_stalling_the_others() {
+        // Item 0 panics; the other worker soon needs group 2, which waits for group 0 to end.
+        let (done, finished) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+            let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                pool.install(|| {
+                    let groups = vec![vec![0usize, 1], vec![2], vec![3, 4]];
+                    run(groups, 2, &grid, &|_, t, _: &Grid| {
+                        if t == 0 {
+                            std::thread::sleep(std::time::Duration::from_millis(20));
+                            panic!("item 0 fails");
+                        }
+                    });
+                })
+            }));
+            done.send(outcome.is_err()).unwrap();
+        });
+        // A generous bound on a run of five empty items: reaching it means the workers hung.
+        let panicked = finished.recv_timeout(std::time::Duration::from_secs(60)).expect("the run hung");
+        assert!(panicked, "the panic of item 0 was lost");
     }
 }
