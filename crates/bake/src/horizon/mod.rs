@@ -228,7 +228,7 @@ fn direction(
     let taps = near::stencil(m, step_len, near_reach);
     let wrap = settings.edge == Edge::Wrap;
     let cols = g.w + reach.map_or(0, |r| r.ceil() as usize) + 1;
-    let steps = steps::Steps::new(m, step_len, cols);
+    let steps = steps::Steps::new(m, step_len, cols, g.stride);
     let near_f = near_cols as f64;
     let end = reach.unwrap_or(f64::INFINITY);
     let texel_bytes = format.texture_format().texel_bytes();

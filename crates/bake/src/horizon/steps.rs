@@ -22,14 +22,33 @@ pub(crate) struct Steps {
     pub row_du: Vec<f64>,
     pub row_c: Vec<i32>,
     pub row_f: Vec<f32>,
-    /// Per column displacement `du`: the number of row crossings at or before it, so the row
-    /// crossings in `(lo, hi]` are `col_dv[lo] + 1 ..= col_dv[hi]`.
-    pub col_dv: Vec<u32>,
+    /// Row length of the grid the offsets below are for.
+    stride: usize,
+    /// Column crossing `du`: offset in the grid's storage from the texel to its first sample.
+    col_off: Vec<isize>,
+    /// The row crossings that fall between two columns (a row crossing on a column is that
+    /// column's crossing), in order.
+    between: Vec<RowCrossing>,
+    /// Per column displacement `du`: how many of `between` lie at or before it, so those in
+    /// `(lo, hi]` are `between[col_rows[lo]..col_rows[hi]]`.
+    col_rows: Vec<u32>,
+}
+
+/// A row crossing between two columns: `lerp(G[i], G[i + 1], f)` with `i` the texel's storage
+/// index plus `off`, at column displacement `du`.
+#[derive(Clone, Copy, Debug)]
+struct RowCrossing {
+    off: isize,
+    f: f32,
+    du: f32,
+    /// `du` exactly, to compare with the bounds of a trace.
+    du64: f64,
 }
 
 impl Steps {
-    /// Tables for column displacements `0..=cols`.
-    pub fn new(m: f64, step_len: f64, cols: usize) -> Steps {
+    /// Tables for column displacements `0..=cols`, with offsets for a grid of row length
+    /// `stride`.
+    pub fn new(m: f64, step_len: f64, cols: usize, stride: usize) -> Steps {
         let mut col_r = Vec::with_capacity(cols + 1);
         let mut col_f = Vec::with_capacity(cols + 1);
         for du in 0..=cols {
@@ -50,15 +69,26 @@ impl Steps {
             }
         }
         row_du.push(f64::INFINITY);
-        let mut col_dv = Vec::with_capacity(cols + 1);
-        let mut dv = 0usize;
+        let col_off = col_r.iter().enumerate().map(|(du, &r)| r as isize * stride as isize + du as isize).collect();
+        let down = if m < 0.0 { -(stride as isize) } else { stride as isize };
+        let between: Vec<RowCrossing> = (1..row_du.len() - 1)
+            .filter(|&dv| row_f[dv] > 0.0)
+            .map(|dv| RowCrossing {
+                off: dv as isize * down + row_c[dv] as isize,
+                f: row_f[dv],
+                du: row_du[dv] as f32,
+                du64: row_du[dv],
+            })
+            .collect();
+        let mut col_rows = Vec::with_capacity(cols + 1);
+        let mut n = 0usize;
         for du in 0..=cols {
-            while row_du[dv + 1] <= du as f64 + 1e-9 {
-                dv += 1;
+            while n < between.len() && between[n].du64 <= du as f64 + 1e-9 {
+                n += 1;
             }
-            col_dv.push(dv as u32);
+            col_rows.push(n as u32);
         }
-        Steps { m, step_len, col_r, col_f, row_du, row_c, row_f, col_dv }
+        Steps { m, step_len, col_r, col_f, row_du, row_c, row_f, stride, col_off, between, col_rows }
     }
 
     /// Traces the ray from canonical texel (`row`, `col`) exactly over column displacements
@@ -75,15 +105,20 @@ impl Steps {
         let best = match span {
             Some(base) => {
                 // Row crossings in (lo, hi]: from the table of whole columns, then the fractions.
-                let mut d0 = self.col_dv[lo.max(0.0) as usize] as usize + 1;
-                while self.row_du[d0] <= lo + 1e-9 {
-                    d0 += 1;
+                let xs = &self.between;
+                let mut r0 = self.col_rows[lo.max(0.0) as usize] as usize;
+                while r0 < xs.len() && xs[r0].du64 <= lo + 1e-9 {
+                    r0 += 1;
                 }
-                let mut d1 = self.col_dv[last] as usize;
-                while self.row_du[d1 + 1] <= hi + 1e-9 {
-                    d1 += 1;
+                let mut r1 = self.col_rows[last] as usize;
+                while r1 < xs.len() && xs[r1].du64 <= hi + 1e-9 {
+                    r1 += 1;
                 }
-                self.trace_padded(g, base, (first, last), (d0, d1))
+                if wrap {
+                    self.trace_padded::<false>(g.data(), base, first..last + 1, r0..r1)
+                } else {
+                    self.trace_padded::<true>(g.data(), base, first..last + 1, r0..r1)
+                }
             }
             None => self.trace_anywhere(g, wrap, row, col, lo, hi, first, last),
         };
@@ -97,11 +132,26 @@ impl Steps {
     pub fn window(&self, g: &Grid, wrap: bool, row: usize, col: usize, lo: usize, hi: usize) -> Option<(f32, f32)> {
         if lo < hi && hi < self.col_r.len() {
             if let Some(base) = self.padded_columns(g, row, col, lo, hi) {
-                let rows = (self.col_dv[lo] as usize + 1, self.col_dv[hi] as usize);
-                return self.slope(self.trace_padded(g, base, (lo + 1, hi), rows));
+                let (cols, rows) = (lo + 1..hi + 1, self.col_rows[lo] as usize..self.col_rows[hi] as usize);
+                // Wrapped padding holds real heights; a window inside a clamped map reads none of
+                // its padding. Either way no sample can be off the map.
+                let best = if wrap || self.on_map(g, row, col, lo, hi) {
+                    self.trace_padded::<false>(g.data(), base, cols, rows)
+                } else {
+                    self.trace_padded::<true>(g.data(), base, cols, rows)
+                };
+                return self.slope(best);
             }
         }
         self.trace(g, wrap, row, col, lo as f64, hi as f64)
+    }
+
+    /// True when every crossing of the ray from texel (`row`, `col`) over `(lo, hi]` reads only
+    /// texels of the map (`lo < hi < col_r.len()`).
+    #[inline(always)]
+    fn on_map(&self, g: &Grid, row: usize, col: usize, lo: usize, hi: usize) -> bool {
+        let (ra, rb) = (self.col_r[lo] as i64, self.col_r[hi] as i64);
+        row as i64 + ra.min(rb) >= 0 && row as i64 + ra.max(rb) + 1 < g.h as i64 && col + hi < g.w
     }
 
     /// `(tan β, d)` of the best (rise, run in columns), `None` when there was no crossing.
@@ -117,49 +167,49 @@ impl Steps {
     /// `(lo, last + 1)` reads inside the padded grid, whose padding holds exactly what a wrapped
     /// or clamped read gives; `None` otherwise.
     #[inline(always)]
-    fn padded_span(&self, g: &Grid, row: usize, col: usize, lo: f64, last: usize) -> Option<i64> {
+    fn padded_span(&self, g: &Grid, row: usize, col: usize, lo: f64, last: usize) -> Option<usize> {
         let last = last.min(self.col_r.len() - 1);
         self.padded_columns(g, row, col, (lo.max(0.0) as usize).min(last), last)
     }
 
     /// [`padded_span`](Self::padded_span) from whole column `first ≤ last < col_r.len()`.
     #[inline(always)]
-    fn padded_columns(&self, g: &Grid, row: usize, col: usize, first: usize, last: usize) -> Option<i64> {
+    fn padded_columns(&self, g: &Grid, row: usize, col: usize, first: usize, last: usize) -> Option<usize> {
         let (ra, rb) = (self.col_r[first] as i64, self.col_r[last] as i64);
         let (r_lo, r_hi) = (row as i64 + ra.min(rb) - 2, row as i64 + ra.max(rb) + 3);
         let fits = r_lo >= -(g.pad as i64) && r_hi < (g.h + g.pad) as i64 && col + last + 2 < g.stride;
-        fits.then(|| g.index(row, col) as i64)
+        fits.then(|| g.index(row, col))
     }
 
-    /// Column crossings `first..=last` and row crossings `d0..=d1`, read straight from the
-    /// padded storage (see [`padded_span`](Self::padded_span)), with no wrapping or edge test per
-    /// sample. Best as (rise, run in columns).
+    /// Column crossings `cols` and the row crossings `between[rows]`, read straight from the
+    /// padded storage at `base`, the texel's index (see [`padded_span`](Self::padded_span)),
+    /// with no wrapping or edge test per sample. `CHECK`: samples may be off a clamped map and
+    /// are then left out. Best as (rise, run in columns).
     #[inline(always)]
-    fn trace_padded(&self, g: &Grid, base: i64, (first, last): (usize, usize), (d0, d1): (usize, usize)) -> (f32, f32) {
-        let (data, stride) = (g.data(), g.stride as i64);
-        let h0 = data[base as usize];
+    fn trace_padded<const CHECK: bool>(
+        &self,
+        data: &[f32],
+        base: usize,
+        cols: std::ops::Range<usize>,
+        rows: std::ops::Range<usize>,
+    ) -> (f32, f32) {
+        let h0 = data[base];
         let (mut rise, mut run) = (f32::NEG_INFINITY, 1.0f32);
         let mut consider = |a: f32, b: f32, f: f32, du: f32| {
             let r = a + f * (b - a) - h0;
-            let on_map = (a > OUTSIDE) & ((f == 0.0) | (b > OUTSIDE));
-            let better = on_map & (r * run > rise * du);
-            if better {
+            // The second sample does not count where the crossing is on a knot (`f` = 0).
+            let on_map = !CHECK || ((a > OUTSIDE) & ((f == 0.0) | (b > OUTSIDE)));
+            if on_map & (r * run > rise * du) {
                 (rise, run) = (r, du);
             }
         };
-        for du in first..last + 1 {
-            let i = (base + self.col_r[du] as i64 * stride) as usize + du;
-            consider(data[i], data[i + stride as usize], self.col_f[du], du as f32);
+        for du in cols {
+            let i = base.wrapping_add_signed(self.col_off[du]);
+            consider(data[i], data[i + self.stride], self.col_f[du], du as f32);
         }
-        if self.m != 0.0 {
-            let step = if self.m < 0.0 { -stride } else { stride };
-            for dv in d0..d1 + 1 {
-                let f = self.row_f[dv];
-                let i = (base + dv as i64 * step) as usize + self.row_c[dv] as usize;
-                // A fraction of 0 is a column crossing, already counted.
-                let (b, f) = if f > 0.0 { (data[i + 1], f) } else { (OUTSIDE, 1.0) };
-                consider(data[i], b, f, self.row_du[dv] as f32);
-            }
+        for x in &self.between[rows] {
+            let i = base.wrapping_add_signed(x.off);
+            consider(data[i], data[i + 1], x.f, x.du);
         }
         (rise, run)
     }
