@@ -243,7 +243,9 @@ impl Sweeper {
             let Some(j) = Self::map_row(g, line, j) else { continue };
             let o = Pt { x: i as f32, h: g.at(j, i) };
             let [hs, hp] = &mut self.hints[slot];
-            let best = match (self.suffix.tangent(o, hs), self.prefix.tangent(o, hp)) {
+            let suffix = self.suffix.tangent(o, hs);
+            // Only a window of limited reach has a prefix hull.
+            let best = match (suffix, line.reach.and_then(|_| self.prefix.tangent(o, hp))) {
                 (Some(s), Some(p)) => Some(if p.steeper_than(&s) { p } else { s }),
                 (s, p) => s.or(p),
             };
