@@ -150,13 +150,11 @@ impl Sweeper {
         self.prefix.clear();
         match line.reach {
             None => {
-                // Clamped: only the columns where the line is near the map matter.
+                // Clamped: only the columns where the line is near the map matter. Past `i_hi`
+                // the line is half a row or more off the map, so it has no samples there and
+                // the hull starts empty.
                 let Some((i_lo, i_hi)) = Self::columns_near_map(g, line.steps.m, k) else { return };
-                for c in (i_hi + near + 1..w).rev() {
-                    if let Some(p) = Self::point(g, line, k, c) {
-                        self.suffix.push_front(p);
-                    }
-                }
+                debug_assert!((i_hi + 1..w).all(|c| Self::point(g, line, k, c).is_none()));
                 for i in (i_lo..=i_hi).rev() {
                     let a = i + near + 1;
                     if a < w {
