@@ -139,6 +139,13 @@ mod tests {
     use super::*;
 
     #[test]
+    fn index_is_the_position_in_all() {
+        for (i, o) in Orientation::ALL.into_iter().enumerate() {
+            assert_eq!(o.index(), i, "{o:?}");
+        }
+    }
+
+    #[test]
     fn canonical_ray_matches_the_azimuth() {
         // For each azimuth, one canonical step (+1 column, m rows) must map back to a step along
         // (cos φ, sin φ) in the original texel space.
