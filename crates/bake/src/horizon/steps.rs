@@ -17,11 +17,6 @@ pub(crate) struct Steps {
     /// Column crossing `du`: whole rows below (`floor(m·du)`) and the fraction to the next row.
     pub col_r: Vec<i32>,
     pub col_f: Vec<f32>,
-    /// Row crossing `dv` (index `dv`, entry 0 unused): column displacement, whole columns and
-    /// fraction (0 where it coincides with a column crossing).
-    pub row_du: Vec<f64>,
-    pub row_c: Vec<i32>,
-    pub row_f: Vec<f32>,
     /// Row length of the grid the offsets below are for.
     stride: usize,
     /// Column crossing `du`: offset in the grid's storage from the texel to its first sample.
@@ -35,10 +30,13 @@ pub(crate) struct Steps {
 }
 
 /// A row crossing between two columns: `lerp(G[i], G[i + 1], f)` with `i` the texel's storage
-/// index plus `off`, at column displacement `du`.
+/// index plus `off`, at column displacement `du`; the first sample is `rows` rows and `c` columns
+/// from the texel.
 #[derive(Clone, Copy, Debug)]
 struct RowCrossing {
     off: isize,
+    rows: i32,
+    c: u32,
     f: f32,
     du: f32,
     /// `du` exactly, to compare with the bounds of a trace.
@@ -56,28 +54,22 @@ impl Steps {
             col_r.push(r as i32);
             col_f.push(f);
         }
-        let am = m.abs();
-        let rows = (am * cols as f64).floor() as usize + 1;
-        let (mut row_du, mut row_c, mut row_f) = (vec![f64::INFINITY], vec![0], vec![0.0]);
-        if am > 0.0 {
-            for dv in 1..=rows {
+        let col_off = col_r.iter().enumerate().map(|(du, &r)| r as isize * stride as isize + du as isize).collect();
+        // Row crossing `dv` is `dv / |m|` columns on; one that falls on a column is left out.
+        let (am, sign) = (m.abs(), if m < 0.0 { -1 } else { 1 });
+        let last_row = if am > 0.0 { (am * cols as f64).floor() as i32 + 1 } else { 0 };
+        let between: Vec<RowCrossing> = (1..=last_row)
+            .filter_map(|dv| {
                 let du = dv as f64 / am;
                 let (c, f) = split(du);
-                row_du.push(du);
-                row_c.push(c as i32);
-                row_f.push(f);
-            }
-        }
-        row_du.push(f64::INFINITY);
-        let col_off = col_r.iter().enumerate().map(|(du, &r)| r as isize * stride as isize + du as isize).collect();
-        let down = if m < 0.0 { -(stride as isize) } else { stride as isize };
-        let between: Vec<RowCrossing> = (1..row_du.len() - 1)
-            .filter(|&dv| row_f[dv] > 0.0)
-            .map(|dv| RowCrossing {
-                off: dv as isize * down + row_c[dv] as isize,
-                f: row_f[dv],
-                du: row_du[dv] as f32,
-                du64: row_du[dv],
+                (f > 0.0).then(|| RowCrossing {
+                    off: (sign * dv) as isize * stride as isize + c as isize,
+                    rows: sign * dv,
+                    c: c as u32,
+                    f,
+                    du: du as f32,
+                    du64: du,
+                })
             })
             .collect();
         let mut col_rows = Vec::with_capacity(cols + 1);
@@ -88,7 +80,7 @@ impl Steps {
             }
             col_rows.push(n as u32);
         }
-        Steps { m, step_len, col_r, col_f, row_du, row_c, row_f, stride, col_off, between, col_rows }
+        Steps { m, step_len, col_r, col_f, stride, col_off, between, col_rows }
     }
 
     /// Traces the ray from canonical texel (`row`, `col`) exactly over column displacements
@@ -103,26 +95,26 @@ impl Steps {
         let first = (super::near::floor_i(lo) + 1).max(1) as usize;
         let span = if hi <= last as f64 + 1.0 { self.padded_span(g, row, col, lo, last) } else { None };
         let best = match span {
-            Some(base) => {
-                // Row crossings in (lo, hi]: from the table of whole columns, then the fractions.
-                let xs = &self.between;
-                let mut r0 = self.col_rows[lo.max(0.0) as usize] as usize;
-                while r0 < xs.len() && xs[r0].du64 <= lo + 1e-9 {
-                    r0 += 1;
-                }
-                let mut r1 = self.col_rows[last] as usize;
-                while r1 < xs.len() && xs[r1].du64 <= hi + 1e-9 {
-                    r1 += 1;
-                }
-                if wrap {
-                    self.trace_padded::<false>(g.data(), base, first..last + 1, r0..r1)
-                } else {
-                    self.trace_padded::<true>(g.data(), base, first..last + 1, r0..r1)
-                }
-            }
-            None => self.trace_anywhere(g, wrap, row, col, lo, hi, first, last),
+            Some(base) => self.best_padded(g, base, first..last + 1, self.rows_between(lo, hi, last), !wrap),
+            None => self.trace_anywhere(g, wrap, row, col, first..last + 1, self.rows_between(lo, hi, last)),
         };
         self.slope(best)
+    }
+
+    /// The row crossings in `(lo, hi]`, as a range of `between`: from the table of whole
+    /// columns (up to `last`), then the fractions.
+    #[inline(always)]
+    fn rows_between(&self, lo: f64, hi: f64, last: usize) -> std::ops::Range<usize> {
+        let xs = &self.between;
+        let mut r0 = self.col_rows[(lo.max(0.0) as usize).min(last)] as usize;
+        while r0 < xs.len() && xs[r0].du64 <= lo + 1e-9 {
+            r0 += 1;
+        }
+        let mut r1 = (self.col_rows[last] as usize).max(r0);
+        while r1 < xs.len() && xs[r1].du64 <= hi + 1e-9 {
+            r1 += 1;
+        }
+        r0..r1
     }
 
     /// [`trace`](Self::trace) over whole column displacements `(lo, hi]`, the window around a
@@ -135,12 +127,8 @@ impl Steps {
                 let (cols, rows) = (lo + 1..hi + 1, self.col_rows[lo] as usize..self.col_rows[hi] as usize);
                 // Wrapped padding holds real heights; a window inside a clamped map reads none of
                 // its padding. Either way no sample can be off the map.
-                let best = if wrap || self.on_map(g, row, col, lo, hi) {
-                    self.trace_padded::<false>(g.data(), base, cols, rows)
-                } else {
-                    self.trace_padded::<true>(g.data(), base, cols, rows)
-                };
-                return self.slope(best);
+                let off_map = !wrap && !self.on_map(g, row, col, lo, hi);
+                return self.slope(self.best_padded(g, base, cols, rows, off_map));
             }
         }
         self.trace(g, wrap, row, col, lo as f64, hi as f64)
@@ -181,6 +169,24 @@ impl Steps {
         fits.then(|| g.index(row, col))
     }
 
+    /// [`trace_padded`](Self::trace_padded), testing each sample for being off the map only
+    /// when `off_map` says some may be.
+    #[inline(always)]
+    fn best_padded(
+        &self,
+        g: &Grid,
+        base: usize,
+        cols: std::ops::Range<usize>,
+        rows: std::ops::Range<usize>,
+        off_map: bool,
+    ) -> (f32, f32) {
+        if off_map {
+            self.trace_padded::<true>(g.data(), base, cols, rows)
+        } else {
+            self.trace_padded::<false>(g.data(), base, cols, rows)
+        }
+    }
+
     /// Column crossings `cols` and the row crossings `between[rows]`, read straight from the
     /// padded storage at `base`, the texel's index (see [`padded_span`](Self::padded_span)),
     /// with no wrapping or edge test per sample. `CHECK`: samples may be off a clamped map and
@@ -214,52 +220,35 @@ impl Steps {
         (rise, run)
     }
 
-    /// The crossings over `(lo, hi]` anywhere on the torus or the clamped map, each read with
-    /// its own wrapping or edge test. Best as (rise, run in columns).
-    #[allow(clippy::too_many_arguments)]
+    /// Column crossings `cols` and the row crossings `between[rows]` anywhere on the torus or
+    /// the clamped map, each read with its own wrapping or edge test. Best as (rise, run in
+    /// columns).
     fn trace_anywhere(
         &self,
         g: &Grid,
         wrap: bool,
         row: usize,
         col: usize,
-        lo: f64,
-        hi: f64,
-        first: usize,
-        last: usize,
+        cols: std::ops::Range<usize>,
+        rows: std::ops::Range<usize>,
     ) -> (f32, f32) {
         let h0 = g.at(row, col);
         let (mut rise, mut run) = (f32::NEG_INFINITY, 1.0f32);
         let mut consider = |v: f32, du: f32| {
-            let r = v - h0;
-            if r * run > rise * du {
-                rise = r;
+            if v > OUTSIDE && (v - h0) * run > rise * du {
+                rise = v - h0;
                 run = du;
             }
         };
-        for du in first..=last {
+        for du in cols {
             let r = row as i64 + self.col_r[du] as i64;
             let c = col as i64 + du as i64;
-            let v = lerp_at(g, wrap, r, c, r + 1, c, self.col_f[du]);
-            if v > OUTSIDE {
-                consider(v, du as f32);
-            }
+            consider(lerp_at(g, wrap, r, c, r + 1, c, self.col_f[du]), du as f32);
         }
-        if self.m != 0.0 {
-            let down = self.m < 0.0;
-            let mut dv = super::near::floor_i(lo.max(0.0) * self.m.abs()).max(0) as usize + 1;
-            while dv < self.row_du.len() && self.row_du[dv] <= hi + 1e-9 {
-                let du = self.row_du[dv];
-                if self.row_f[dv] > 0.0 && du > lo + 1e-9 {
-                    let r = if down { row as i64 - dv as i64 } else { row as i64 + dv as i64 };
-                    let c = col as i64 + self.row_c[dv] as i64;
-                    let v = lerp_at(g, wrap, r, c, r, c + 1, self.row_f[dv]);
-                    if v > OUTSIDE {
-                        consider(v, du as f32);
-                    }
-                }
-                dv += 1;
-            }
+        for x in &self.between[rows] {
+            let r = row as i64 + x.rows as i64;
+            let c = col as i64 + x.c as i64;
+            consider(lerp_at(g, wrap, r, c, r, c + 1, x.f), x.du);
         }
         (rise, run)
     }
