@@ -168,7 +168,7 @@ pub fn bake(
         work[orientation_of(k).index()].push((k, slice));
     }
     let build = |g: usize| Orientation::ALL[g].grid((w, h), &hf.samples, hf.height_scale, (sx, sy), pad, wrap);
-    schedule::run(work, rayon::current_num_threads(), &build, &|g, (k, slice): (usize, &mut [u8]), grid| {
+    schedule::run(work, &build, &|g, (k, slice): (usize, &mut [u8]), grid| {
         let (_, m) = Orientation::for_azimuth(std::f64::consts::TAU * k as f64 / d as f64);
         direction(grid, Orientation::ALL[g], (w, h), m, settings, format, distance_scale, slice);
         progress(done.fetch_add(1, Ordering::Relaxed) + 1, d as u64);

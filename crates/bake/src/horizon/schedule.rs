@@ -15,13 +15,12 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
 
 use super::grid::Grid;
 
-/// Runs `bake(group, item, grid)` for every item of every group on `threads` workers of the
-/// current rayon pool, taking items in order (group 0's first). `build(group)` makes a group's
+/// Runs `bake(group, item, grid)` for every item of every group on one worker per thread of
+/// the current rayon pool, taking items in order (group 0's first). `build(group)` makes a group's
 /// grid (never called for an empty group). The result does not depend on the schedule: each
 /// item sees only its group's grid.
 pub(crate) fn run<T: Send>(
     groups: Vec<Vec<T>>,
-    threads: usize,
     build: &(dyn Fn(usize) -> Grid + Sync),
     bake: &(dyn Fn(usize, T, &Grid) + Sync),
 ) {
@@ -50,7 +49,7 @@ pub(crate) fn run<T: Send>(
         }
     };
     rayon::scope(|s| {
-        for _ in 1..threads.max(1) {
+        for _ in 1..rayon::current_num_threads() {
             s.spawn(|_| worker());
         }
         worker();
@@ -132,7 +131,7 @@ mod tests {
             let group_of = |t: usize| groups.iter().position(|items| items.contains(&t)).unwrap();
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
             pool.install(|| {
-                run(groups.clone(), threads, &build, &|g, t, grid: &Grid| {
+                run(groups.clone(), &build, &|g, t, grid: &Grid| {
                     assert_eq!(g, group_of(t), "item {t} ran with group {g}");
                     assert_eq!(grid.at(0, 0), g as f32, "item {t} got another group's grid");
                     std::thread::sleep(std::time::Duration::from_millis(1 + (t % 3) as u64));
@@ -162,7 +161,7 @@ mod tests {
             let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                 pool.install(|| {
                     let groups = vec![vec![0usize, 1], vec![2], vec![3, 4]];
-                    run(groups, 2, &grid, &|_, t, _: &Grid| {
+                    run(groups, &grid, &|_, t, _: &Grid| {
                         if t == 0 {
                             std::thread::sleep(std::time::Duration::from_millis(20));
                             panic!("item 0 fails");
