@@ -16,7 +16,11 @@ fn terrain(n: u32) -> Heightfield {
 pub fn run() {
     brute_force_rows();
     throughput_rows();
-    grass_row();
+    // At the throughput rows' 1024²×16 too: r.horizon's time grows faster than the map (its rays
+    // are longer), so the ratio depends on the size. One r.horizon run there takes ~30 s.
+    for size in [512, 1024] {
+        grass_row(size);
+    }
 }
 
 /// Brute force vs the baker at 256², same input and settings, with the accuracy it reaches.
@@ -149,8 +153,8 @@ fn memory_row(format: &str, size: u32, dirs: u32, bake_peak: Option<f64>, out_mi
 /// (`apt-get install grass-core`): the same 30 m terrain written as an ASCII grid into a
 /// temporary UTM project; only the `r.horizon` call is timed (it runs on one thread; its own
 /// pruning makes it far faster than a plain brute force).
-fn grass_row() {
-    let (size, dirs) = (512u32, 16u32);
+fn grass_row(size: u32) {
+    let dirs = 16u32;
     let installed = std::process::Command::new("grass").arg("--version").output().is_ok_and(|o| o.status.success());
     if !installed {
         println!("| GRASS r.horizon | {size}²×{dirs} | — | — | not installed (apt-get install grass-core) | — |");
