@@ -104,7 +104,7 @@ impl Steps {
         let first = (super::near::floor_i(lo) + 1).max(1) as usize;
         let span = if hi <= last as f64 + 1.0 { self.padded_span(g, row, col, lo, last) } else { None };
         let best = match span {
-            Some(base) => self.best_padded(g, base, first..last + 1, self.rows_between(lo, hi, last), !wrap),
+            Some(base) => self.best_padded(g, base, first..last + 1, self.rows_between(lo, hi, last), !wrap, false),
             None => self.trace_anywhere(g, wrap, row, col, first..last + 1, self.rows_between(lo, hi, last)),
         };
         self.slope(best)
@@ -137,14 +137,8 @@ impl Steps {
                 // Wrapped padding holds real heights; a window inside a clamped map reads none of
                 // its padding. Either way no sample can be off the map.
                 let off_map = !wrap && !self.on_map(g, row, col, lo, hi);
-                if hi - lo <= COL_SLOTS && rows.len() <= ROW_SLOTS {
-                    return self.slope(if off_map {
-                        self.slots::<true>(g.data(), base, cols, rows)
-                    } else {
-                        self.slots::<false>(g.data(), base, cols, rows)
-                    });
-                }
-                return self.slope(self.best_padded(g, base, cols, rows, off_map));
+                let slotted = hi - lo <= COL_SLOTS && rows.len() <= ROW_SLOTS;
+                return self.slope(self.best_padded(g, base, cols, rows, off_map, slotted));
             }
         }
         self.trace(g, wrap, row, col, lo as f64, hi as f64)
@@ -186,7 +180,8 @@ impl Steps {
     }
 
     /// [`trace_padded`](Self::trace_padded), testing each sample for being off the map only
-    /// when `off_map` says some may be.
+    /// when `off_map` says some may be, and as fixed slots when `slotted` (at most
+    /// [`COL_SLOTS`] columns and [`ROW_SLOTS`] row crossings).
     #[inline(always)]
     fn best_padded(
         &self,
@@ -195,11 +190,14 @@ impl Steps {
         cols: std::ops::Range<usize>,
         rows: std::ops::Range<usize>,
         off_map: bool,
+        slotted: bool,
     ) -> (f32, f32) {
-        if off_map {
-            self.trace_padded::<true>(g.data(), base, cols, rows)
-        } else {
-            self.trace_padded::<false>(g.data(), base, cols, rows)
+        let data = g.data();
+        match (off_map, slotted) {
+            (true, false) => self.trace_padded::<true, false>(data, base, cols, rows),
+            (false, false) => self.trace_padded::<false, false>(data, base, cols, rows),
+            (true, true) => self.trace_padded::<true, true>(data, base, cols, rows),
+            (false, true) => self.trace_padded::<false, true>(data, base, cols, rows),
         }
     }
 
@@ -207,71 +205,44 @@ impl Steps {
     /// padded storage at `base`, the texel's index (see [`padded_span`](Self::padded_span)),
     /// with no wrapping or edge test per sample. `CHECK`: samples may be off a clamped map and
     /// are then left out. Best as (rise, run in columns).
+    ///
+    /// `SLOTTED`: at most [`COL_SLOTS`] columns and [`ROW_SLOTS`] row crossings, taken as a
+    /// fixed number of samples. A window's length varies from texel to texel, and loops of
+    /// varying trip count cost a mispredicted exit each. Unused column slots repeat the last
+    /// column and unused row slots read the sentinel, masked out, so the result is the same.
     #[inline(always)]
-    fn trace_padded<const CHECK: bool>(
+    fn trace_padded<const CHECK: bool, const SLOTTED: bool>(
         &self,
         data: &[f32],
         base: usize,
         cols: std::ops::Range<usize>,
         rows: std::ops::Range<usize>,
     ) -> (f32, f32) {
-        let h0 = data[base];
-        let (mut rise, mut run) = (f32::NEG_INFINITY, 1.0f32);
-        let mut consider = |a: f32, b: f32, f: f32, du: f32| {
-            let r = a + f * (b - a) - h0;
-            // The second sample does not count where the crossing is on a knot (`f` = 0).
-            let on_map = !CHECK || ((a > OUTSIDE) & ((f == 0.0) | (b > OUTSIDE)));
-            if on_map & (r * run > rise * du) {
-                (rise, run) = (r, du);
-            }
-        };
-        for du in cols {
+        let mut best = Steepest::new(data[base]);
+        let mut column = |du: usize| {
             let i = base.wrapping_add_signed(self.col_off[du]);
-            consider(data[i], data[i + self.stride], self.col_f[du], du as f32);
-        }
-        for x in &self.between[rows] {
-            let i = base.wrapping_add_signed(x.off);
-            consider(data[i], data[i + 1], x.f, x.du);
-        }
-        (rise, run)
-    }
-
-    /// [`trace_padded`](Self::trace_padded) for at most [`COL_SLOTS`] columns and [`ROW_SLOTS`]
-    /// row crossings, as a fixed number of samples: a window's length varies from texel to
-    /// texel, and loops of varying trip count cost a mispredicted exit each. Unused column slots
-    /// repeat the last column and unused row slots read the sentinel, masked out, so the result
-    /// is that of `trace_padded`.
-    #[inline(always)]
-    fn slots<const CHECK: bool>(
-        &self,
-        data: &[f32],
-        base: usize,
-        cols: std::ops::Range<usize>,
-        rows: std::ops::Range<usize>,
-    ) -> (f32, f32) {
-        let h0 = data[base];
-        let (mut rise, mut run) = (f32::NEG_INFINITY, 1.0f32);
-        let mut consider = |valid: bool, a: f32, b: f32, f: f32, du: f32| {
-            let r = a + f * (b - a) - h0;
-            let on_map = !CHECK || ((a > OUTSIDE) & ((f == 0.0) | (b > OUTSIDE)));
-            let better = valid & on_map & (r * run > rise * du);
-            rise = if better { r } else { rise };
-            run = if better { du } else { run };
+            best.consider::<CHECK>(true, data[i], data[i + self.stride], self.col_f[du], du as f32);
         };
-        for k in 0..COL_SLOTS {
+        if SLOTTED {
             // A repeat of the last column cannot win again (the comparison is strict).
-            let du = (cols.start + k).min(cols.end - 1);
-            let i = base.wrapping_add_signed(self.col_off[du]);
-            consider(true, data[i], data[i + self.stride], self.col_f[du], du as f32);
+            (0..COL_SLOTS).for_each(|k| column((cols.start + k).min(cols.end - 1)));
+        } else {
+            cols.for_each(column);
         }
-        let sentinel = self.between.len() - 1;
-        for k in 0..ROW_SLOTS {
-            let valid = rows.start + k < rows.end;
-            let x = &self.between[if valid { rows.start + k } else { sentinel }];
+        let mut row = |valid: bool, x: &RowCrossing| {
             let i = base.wrapping_add_signed(x.off);
-            consider(valid, data[i], data[i + 1], x.f, x.du);
+            best.consider::<CHECK>(valid, data[i], data[i + 1], x.f, x.du);
+        };
+        if SLOTTED {
+            let sentinel = self.between.len() - 1;
+            for k in 0..ROW_SLOTS {
+                let valid = rows.start + k < rows.end;
+                row(valid, &self.between[if valid { rows.start + k } else { sentinel }]);
+            }
+        } else {
+            self.between[rows].iter().for_each(|x| row(true, x));
         }
-        (rise, run)
+        (best.rise, best.run)
     }
 
     /// Column crossings `cols` and the row crossings `between[rows]` anywhere on the torus or
@@ -305,6 +276,33 @@ impl Steps {
             consider(lerp_at(g, wrap, r, c, r, c + 1, x.f), x.du);
         }
         (rise, run)
+    }
+}
+
+/// The steepest crossing so far from a texel of height `h0`, as (rise, run in columns); the
+/// first of equally steep crossings stays.
+struct Steepest {
+    h0: f32,
+    rise: f32,
+    run: f32,
+}
+
+impl Steepest {
+    #[inline(always)]
+    fn new(h0: f32) -> Steepest {
+        Steepest { h0, rise: f32::NEG_INFINITY, run: 1.0 }
+    }
+
+    /// Takes the crossing `lerp(a, b, f)` at column displacement `du` if `valid` and steeper.
+    /// `CHECK`: it may be off a clamped map ([`OUTSIDE`]) and is then left out; its second
+    /// sample does not count where the crossing is on a knot (`f` = 0).
+    #[inline(always)]
+    fn consider<const CHECK: bool>(&mut self, valid: bool, a: f32, b: f32, f: f32, du: f32) {
+        let r = a + f * (b - a) - self.h0;
+        let on_map = !CHECK || ((a > OUTSIDE) & ((f == 0.0) | (b > OUTSIDE)));
+        let better = valid & on_map & (r * self.run > self.rise * du);
+        self.rise = if better { r } else { self.rise };
+        self.run = if better { du } else { self.run };
     }
 }
 
