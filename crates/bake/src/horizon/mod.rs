@@ -422,17 +422,13 @@ fn encode_row(
         return;
     }
     use half::slice::HalfFloatSliceExt;
-    s.iter_mut().for_each(|s| *s = s.clamp(OPEN_SKY_SLOPE, -OPEN_SKY_SLOPE));
-    t.iter_mut().for_each(|t| *t = t.min(-OPEN_SKY_SLOPE));
+    s.iter_mut().zip(t.iter_mut()).for_each(|(s, t)| (*s, *t) = f16_range(*s, *t));
     halves.resize(2 * n, half::f16::ZERO);
     let (hs, ht) = halves.split_at_mut(n);
     hs.convert_from_f32_slice(s);
     ht.convert_from_f32_slice(t);
     let texels = out.chunks_exact_mut(4);
-    let write = |(o, (s, t)): (&mut [u8], (&half::f16, &half::f16))| {
-        o[..2].copy_from_slice(&s.to_le_bytes());
-        o[2..].copy_from_slice(&t.to_le_bytes());
-    };
+    let write = |(o, (&s, &t)): (&mut [u8], (&half::f16, &half::f16))| put_f16(o, s, t);
     if reversed {
         texels.rev().zip(hs.iter().zip(ht.iter())).for_each(write);
     } else {
@@ -448,16 +444,28 @@ fn encode(format: HorizonFormat, slope: f32, dist: f32, distance_scale: f32, out
             out[1] = rg8::unorm(dist / distance_scale);
         }
         HorizonFormat::Rg16Float => {
-            let s = half::f16::from_f32(slope.clamp(OPEN_SKY_SLOPE, -OPEN_SKY_SLOPE));
-            let d = half::f16::from_f32(dist.min(-OPEN_SKY_SLOPE));
-            out[..2].copy_from_slice(&s.to_le_bytes());
-            out[2..4].copy_from_slice(&d.to_le_bytes());
+            let (s, d) = f16_range(slope, dist);
+            put_f16(out, half::f16::from_f32(s), half::f16::from_f32(d));
         }
         HorizonFormat::Rg32Float => {
             out[..4].copy_from_slice(&slope.to_le_bytes());
             out[4..8].copy_from_slice(&dist.to_le_bytes());
         }
     }
+}
+
+/// A texel clamped to what an rg16f texel holds: slopes within ±`-OPEN_SKY_SLOPE`, distances
+/// at most `-OPEN_SKY_SLOPE` (f16 would round larger values to infinity).
+#[inline(always)]
+fn f16_range(slope: f32, dist: f32) -> (f32, f32) {
+    (slope.clamp(OPEN_SKY_SLOPE, -OPEN_SKY_SLOPE), dist.min(-OPEN_SKY_SLOPE))
+}
+
+/// Writes an rg16f texel into `out` (exactly one texel long).
+#[inline(always)]
+fn put_f16(out: &mut [u8], slope: half::f16, dist: half::f16) {
+    out[..2].copy_from_slice(&slope.to_le_bytes());
+    out[2..4].copy_from_slice(&dist.to_le_bytes());
 }
 
 /// Decodes texel `(k, row, col)` of a horizon texture to `(tan β, d)`.
