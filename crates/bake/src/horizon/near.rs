@@ -2,9 +2,10 @@
 //!
 //! Rays start at texel centres, so in canonical orientation the crossings of every ray of one
 //! direction sit at the same offsets: the near field is a fixed stencil of taps, each a linear
-//! interpolation between two texels on one grid line. Applying a tap to a whole row at once is a
-//! straight, branch-free loop the compiler vectorises; an AVX2 build of the loop is chosen at run
-//! time where the processor has it (results are identical: Rust never fuses multiply-adds).
+//! interpolation between two texels on one grid line. A row is taken 16 texels at a time, every
+//! tap applied to them while their best values stay in registers: a straight, branch-free loop
+//! the compiler vectorises; an AVX2 build of it is chosen at run time where the processor has it
+//! (results are identical: Rust never fuses multiply-adds, and each texel sees the taps in order).
 //!
 //! Cost: `O(N · K · (1 + |m|))` per direction, `O(W + H)` extra memory beyond the padded grid.
 
@@ -24,6 +25,8 @@ pub(crate) struct Tap {
     pub cb: usize,
     pub f: f32,
     pub t: f32,
+    /// `1 / t`.
+    pub inv_t: f32,
 }
 
 /// The stencil of a canonical direction with row slope `m`: every crossing with column
@@ -34,7 +37,8 @@ pub(crate) fn stencil(m: f64, step_len: f64, reach: f64) -> Vec<Tap> {
     let mut du = 1usize;
     while du as f64 <= reach + 1e-9 {
         let (r, f) = split(m * du as f64);
-        taps.push(Tap { ra: r as isize, ca: du, rb: r as isize + 1, cb: du, f, t: (du as f64 * step_len) as f32 });
+        let t = (du as f64 * step_len) as f32;
+        taps.push(Tap { ra: r as isize, ca: du, rb: r as isize + 1, cb: du, f, t, inv_t: 1.0 / t });
         du += 1;
     }
     // Row crossings: one row further each time.
@@ -48,7 +52,8 @@ pub(crate) fn stencil(m: f64, step_len: f64, reach: f64) -> Vec<Tap> {
             let (c, f) = split(du);
             if f > 0.0 {
                 let row = if m > 0.0 { dv as isize } else { -(dv as isize) };
-                taps.push(Tap { ra: row, ca: c as usize, rb: row, cb: c as usize + 1, f, t: (du * step_len) as f32 });
+                let t = (du * step_len) as f32;
+                taps.push(Tap { ra: row, ca: c as usize, rb: row, cb: c as usize + 1, f, t, inv_t: 1.0 / t });
             }
             dv += 1;
         }
@@ -77,23 +82,56 @@ unsafe fn row_avx2(g: &Grid, taps: &[Tap], row: usize, best_s: &mut [f32], best_
     row_generic(g, taps, row, best_s, best_t);
 }
 
+/// Texels of a row whose best values stay in registers while every tap is applied to them: with
+/// a tap at a time over the whole row, each tap reloaded and stored both best values per texel.
+const CHUNK: usize = 16;
+
 #[inline(always)]
 fn row_generic(g: &Grid, taps: &[Tap], row: usize, best_s: &mut [f32], best_t: &mut [f32]) {
     let w = g.w;
     let h0 = g.padded_row(row as isize, 0, w);
-    best_s.fill(f32::NEG_INFINITY);
-    best_t.fill(0.0);
+    let tap_rows = |tap: &Tap, col: usize, len: usize| {
+        let a = g.padded_row(row as isize + tap.ra, tap.ca + col, len);
+        let b = g.padded_row(row as isize + tap.rb, tap.cb + col, len);
+        (a, b)
+    };
+    // Whole chunks, every tap in stencil order for each texel.
+    let whole = w - w % CHUNK;
+    for col in (0..whole).step_by(CHUNK) {
+        let o: [f32; CHUNK] = h0[col..col + CHUNK].try_into().expect("a chunk is CHUNK long");
+        let mut bs = [f32::NEG_INFINITY; CHUNK];
+        let mut bt = [0.0f32; CHUNK];
+        for tap in taps {
+            let (a, b) = tap_rows(tap, col, CHUNK);
+            // Whole arrays by value and the tap's numbers in locals: so the best values stay in
+            // registers (through references, they were kept in memory, a masked store per tap).
+            let (f, t, inv_t) = (tap.f, tap.t, tap.inv_t);
+            let v: [f32; CHUNK] = std::array::from_fn(|i| slope(a[i], b[i], o[i], f, inv_t));
+            bt = std::array::from_fn(|i| if v[i] > bs[i] { t } else { bt[i] });
+            bs = std::array::from_fn(|i| if v[i] > bs[i] { v[i] } else { bs[i] });
+        }
+        best_s[col..col + CHUNK].copy_from_slice(&bs);
+        best_t[col..col + CHUNK].copy_from_slice(&bt);
+    }
+    // The rest of the row, a tap at a time.
+    let (bs, bt, o) = (&mut best_s[whole..w], &mut best_t[whole..w], &h0[whole..]);
+    bs.fill(f32::NEG_INFINITY);
+    bt.fill(0.0);
     for tap in taps {
-        let a = g.padded_row(row as isize + tap.ra, tap.ca, w);
-        let b = g.padded_row(row as isize + tap.rb, tap.cb, w);
-        let (f, t, inv_t) = (tap.f, tap.t, 1.0 / tap.t);
-        for ((((bs, bt), &o), &x), &y) in best_s.iter_mut().zip(best_t.iter_mut()).zip(h0).zip(a).zip(b) {
-            let v = (x + f * (y - x) - o) * inv_t;
-            let better = v > *bs;
-            *bs = if better { v } else { *bs };
-            *bt = if better { t } else { *bt };
+        let (a, b) = tap_rows(tap, whole, w - whole);
+        let (f, t, inv_t) = (tap.f, tap.t, tap.inv_t);
+        for ((((bs, bt), &o), &x), &y) in bs.iter_mut().zip(bt.iter_mut()).zip(o).zip(a).zip(b) {
+            let v = slope(x, y, o, f, inv_t);
+            (*bs, *bt) = if v > *bs { (v, t) } else { (*bs, *bt) };
         }
     }
+}
+
+/// `tan β` of a tap (fraction `f`, distance `1 / inv_t`) from a texel of height `o`, where the
+/// tap's two heights are `x` and `y`.
+#[inline(always)]
+fn slope(x: f32, y: f32, o: f32, f: f32, inv_t: f32) -> f32 {
+    (x + f * (y - x) - o) * inv_t
 }
 
 /// `floor` as an integer without a libm call (baseline x86-64 has no rounding instruction).
