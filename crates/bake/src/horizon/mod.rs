@@ -288,15 +288,13 @@ fn direction(
         encode_row(format, &mut best_s, &mut best_t, distance_scale, dst, reversed, &mut halves);
         if !tile.is_empty() && (row % TILE == TILE - 1 || row + 1 == g.h) {
             let first = row - row % TILE;
-            for col in 0..g.w {
-                // (col, first + k) is `k` texels after (col, first) in the output.
-                let o = at(col, first);
-                for k in 0..=row - first {
-                    let from = (k * g.w + col) * texel_bytes;
-                    out[o + k * texel_bytes..o + (k + 1) * texel_bytes]
-                        .copy_from_slice(&tile[from..from + texel_bytes]);
-                }
-            }
+            // (col, first + k) is `k` texels after (col, first) in the output.
+            let untile = match format {
+                HorizonFormat::Rg8Unorm => untile::<2>,
+                HorizonFormat::Rg16Float => untile::<4>,
+                HorizonFormat::Rg32Float => untile::<8>,
+            };
+            untile(&tile, g.w, row + 1 - first, out, &|col| at(col, first));
         }
     }
     if end <= near_f {
@@ -371,6 +369,19 @@ fn direction(
         }
     };
     sweep::far_field(g, &line, &mut finish, &fetch_texel);
+}
+
+/// Writes the first `rows` rows of a transposed orientation's `tile` (rows of `w` texels of `B`
+/// bytes) to `out`, where texel `k` of column `col` goes `k` texels after `start(col)`. The texel
+/// size is a constant so that each texel is a move, not a call to `memmove`.
+fn untile<const B: usize>(tile: &[u8], w: usize, rows: usize, out: &mut [u8], start: &dyn Fn(usize) -> usize) {
+    for col in 0..w {
+        let o = start(col);
+        for (k, texel) in out[o..o + rows * B].chunks_exact_mut(B).enumerate() {
+            let from = (k * w + col) * B;
+            texel.copy_from_slice(&tile[from..from + B]);
+        }
+    }
 }
 
 /// Asks the processor to bring the cache line at `addr` closer; no effect on results.
