@@ -88,43 +88,37 @@ const CHUNK: usize = 16;
 
 #[inline(always)]
 fn row_generic(g: &Grid, taps: &[Tap], row: usize, best_s: &mut [f32], best_t: &mut [f32]) {
-    let w = g.w;
-    let h0 = g.padded_row(row as isize, 0, w);
-    let tap_rows = |tap: &Tap, col: usize, len: usize| {
-        let a = g.padded_row(row as isize + tap.ra, tap.ca + col, len);
-        let b = g.padded_row(row as isize + tap.rb, tap.cb + col, len);
-        (a, b)
-    };
-    // Whole chunks, every tap in stencil order for each texel.
-    let whole = w - w % CHUNK;
+    // Whole chunks, then the rest of the row a texel at a time: the same steps either way.
+    let whole = g.w - g.w % CHUNK;
     for col in (0..whole).step_by(CHUNK) {
-        let o: [f32; CHUNK] = h0[col..col + CHUNK].try_into().expect("a chunk is CHUNK long");
-        let mut bs = [f32::NEG_INFINITY; CHUNK];
-        let mut bt = [0.0f32; CHUNK];
-        for tap in taps {
-            let (a, b) = tap_rows(tap, col, CHUNK);
-            // Whole arrays by value and the tap's numbers in locals: so the best values stay in
-            // registers (through references, they were kept in memory, a masked store per tap).
-            let (f, t, inv_t) = (tap.f, tap.t, tap.inv_t);
-            let v: [f32; CHUNK] = std::array::from_fn(|i| slope(a[i], b[i], o[i], f, inv_t));
-            bt = std::array::from_fn(|i| if v[i] > bs[i] { t } else { bt[i] });
-            bs = std::array::from_fn(|i| if v[i] > bs[i] { v[i] } else { bs[i] });
-        }
-        best_s[col..col + CHUNK].copy_from_slice(&bs);
-        best_t[col..col + CHUNK].copy_from_slice(&bt);
+        chunk::<CHUNK>(g, taps, row, col, best_s, best_t);
     }
-    // The rest of the row, a tap at a time.
-    let (bs, bt, o) = (&mut best_s[whole..w], &mut best_t[whole..w], &h0[whole..]);
-    bs.fill(f32::NEG_INFINITY);
-    bt.fill(0.0);
+    for col in whole..g.w {
+        chunk::<1>(g, taps, row, col, best_s, best_t);
+    }
+}
+
+/// Applies every tap, in stencil order, to the `N` texels of canonical row `row` from column
+/// `col`, writing their best slopes and distances to `best_s`/`best_t` at the same columns.
+#[inline(always)]
+fn chunk<const N: usize>(g: &Grid, taps: &[Tap], row: usize, col: usize, best_s: &mut [f32], best_t: &mut [f32]) {
+    let chunk_of = |r: isize, c: usize| -> [f32; N] {
+        g.padded_row(row as isize + r, c + col, N).try_into().expect("padded_row gives N heights")
+    };
+    let o = chunk_of(0, 0);
+    let mut bs = [f32::NEG_INFINITY; N];
+    let mut bt = [0.0f32; N];
     for tap in taps {
-        let (a, b) = tap_rows(tap, whole, w - whole);
+        let (a, b) = (chunk_of(tap.ra, tap.ca), chunk_of(tap.rb, tap.cb));
+        // Whole arrays by value and the tap's numbers in locals: so the best values stay in
+        // registers (through references, they were kept in memory, a masked store per tap).
         let (f, t, inv_t) = (tap.f, tap.t, tap.inv_t);
-        for ((((bs, bt), &o), &x), &y) in bs.iter_mut().zip(bt.iter_mut()).zip(o).zip(a).zip(b) {
-            let v = slope(x, y, o, f, inv_t);
-            (*bs, *bt) = if v > *bs { (v, t) } else { (*bs, *bt) };
-        }
+        let v: [f32; N] = std::array::from_fn(|i| slope(a[i], b[i], o[i], f, inv_t));
+        bt = std::array::from_fn(|i| if v[i] > bs[i] { t } else { bt[i] });
+        bs = std::array::from_fn(|i| if v[i] > bs[i] { v[i] } else { bs[i] });
     }
+    best_s[col..col + N].copy_from_slice(&bs);
+    best_t[col..col + N].copy_from_slice(&bt);
 }
 
 /// `tan β` of a tap (fraction `f`, distance `1 / inv_t`) from a texel of height `o`, where the
