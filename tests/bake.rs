@@ -90,7 +90,7 @@ fn thread_count_does_not_change_a_byte() {
         .pipeline
         .jobs
         .iter()
-        .map(|j| j.kind())
+        .map(|j| j.baker().kind())
         .collect();
     assert_eq!(kinds.into_iter().collect::<Vec<_>>(), ["curvature", "heightfield", "horizon", "relief", "strands"]);
     one.run(&["bake", "--jobs", "1"]);

@@ -15,7 +15,7 @@ fn read(reader: &str, path: &Path) -> Option<(&'static str, String)> {
     let bake = |e: hikage_bake::BakeError| (e.class(), e.to_string());
     let bundle = |e: hikage_bundle::BundleError| (e.class(), e.to_string());
     match reader {
-        "strands" => hikage_bake::jobs::strands::load(path).err().map(bake),
+        "strands" => hikage_bake::strands::load(path).err().map(bake),
         "heightfield" => hikage_bake::heightfield::load_samples(path, &Default::default()).err().map(bake),
         "pipeline" => hikage_bake::Pipeline::load(path).err().map(bake),
         "mesh" => hikage_bake::mesh::load(path, Default::default()).err().map(bake),
@@ -69,7 +69,7 @@ fn every_bad_input_gives_its_error_class() {
 fn fuzz_regressions_replay_without_panicking() {
     let root = crate::util::repo().join("fuzz/regressions");
     let mut replayed = 0;
-    for (target, run) in hikage_bake::fuzzing::TARGETS {
+    for (target, run) in hikage_devkit::fuzzing::TARGETS {
         let Ok(entries) = std::fs::read_dir(root.join(target)) else { continue };
         for entry in entries {
             let path = entry.unwrap().path();
@@ -86,7 +86,7 @@ fn fuzz_regressions_replay_without_panicking() {
         ("ktx2", "ktx2"),
         ("pipeline", "pipeline"),
     ] {
-        let run = hikage_bake::fuzzing::TARGETS.iter().find(|t| t.0 == target).unwrap().1;
+        let run = hikage_devkit::fuzzing::TARGETS.iter().find(|t| t.0 == target).unwrap().1;
         for entry in std::fs::read_dir(corpus().join(dir)).unwrap() {
             run(&std::fs::read(entry.unwrap().path()).unwrap());
             replayed += 1;

@@ -1,7 +1,7 @@
 //! The committed sample data is what the committed generators make (data/README.md).
 
 use hikage_bake::heightfield::{LoadOptions, load_samples};
-use hikage_bake::synth;
+use hikage_devkit::synth;
 
 use crate::util::repo;
 

@@ -2,8 +2,7 @@
 //! texel back through a compute shader, compared exactly with the CPU decode.
 
 use hikage_bundle::{
-    AssetKind, BundleWriter, Settings, Supercompression, TextureData, TextureDesc, TextureDimension, TextureFormat,
-    WriteMode,
+    BundleWriter, Settings, Supercompression, TextureData, TextureDesc, TextureDimension, TextureFormat, WriteMode,
 };
 use hikage_runtime::headless::{Headless, gpu_required};
 use hikage_runtime::{CpuBundle, GpuBundle, RuntimeError, wgpu};
@@ -157,8 +156,8 @@ fn baked_textures_read_back_exactly_on_the_device() {
     dir.write("pipeline.ron", "(output: \"bundle\", jobs: [Heightfield(id: \"cyl\", input: \"data/cylinders.png\")])");
     dir.run(&["bake"]);
     let mut writer = BundleWriter::open(&dir.path("bundle"), WriteMode::Update).unwrap();
-    writer.put_texture("volume", AssetKind::Texture, Settings::Generic, "test", &volume_texture()).unwrap();
-    writer.put_texture("layers", AssetKind::Texture, Settings::Generic, "test", &array_texture()).unwrap();
+    writer.put_texture("volume", Settings::Generic, "test", &volume_texture()).unwrap();
+    writer.put_texture("layers", Settings::Generic, "test", &array_texture()).unwrap();
     writer.commit().unwrap();
     dir.run(&["validate", "bundle"]);
 
@@ -199,7 +198,7 @@ fn baked_textures_read_back_exactly_on_the_device() {
 fn hostile_bundles_give_errors_not_panics() {
     let dir = Dir::new("gpu_hostile");
     let mut writer = BundleWriter::open(&dir.path("bundle"), WriteMode::Replace).unwrap();
-    let asset = writer.put_texture("volume", AssetKind::Texture, Settings::Generic, "x", &volume_texture()).unwrap();
+    let asset = writer.put_texture("volume", Settings::Generic, "x", &volume_texture()).unwrap();
     writer.commit().unwrap();
 
     // Tampered payload: refused before any device work.
@@ -214,7 +213,7 @@ fn hostile_bundles_give_errors_not_panics() {
     // Manifest dimensions disagreeing with the KTX2 header.
     let dir = Dir::new("gpu_hostile_dims");
     let mut writer = BundleWriter::open(&dir.path("bundle"), WriteMode::Replace).unwrap();
-    writer.put_texture("volume", AssetKind::Texture, Settings::Generic, "x", &volume_texture()).unwrap();
+    writer.put_texture("volume", Settings::Generic, "x", &volume_texture()).unwrap();
     writer.commit().unwrap();
     let manifest = std::fs::read_to_string(dir.path("bundle/bundle.ron")).unwrap();
     std::fs::write(dir.path("bundle/bundle.ron"), manifest.replace("depth: 6", "depth: 7")).unwrap();
@@ -239,7 +238,7 @@ fn hostile_bundles_give_errors_not_panics() {
     let tall = TextureData { levels: vec![vec![7u8; depth as usize]], desc };
     let dir = Dir::new("gpu_hostile_limits");
     let mut writer = BundleWriter::open(&dir.path("bundle"), WriteMode::Replace).unwrap();
-    writer.put_texture("tall", AssetKind::Texture, Settings::Generic, "x", &tall).unwrap();
+    writer.put_texture("tall", Settings::Generic, "x", &tall).unwrap();
     writer.commit().unwrap();
     let cpu = CpuBundle::read(&dir.path("bundle")).unwrap();
     match GpuBundle::upload(&g.device, &g.queue, &cpu) {

@@ -10,13 +10,10 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use hikage_bake::BakeError;
-use hikage_bake::export::{ExportFormat, export_texture};
-use hikage_bake::horizon::HorizonFormat;
-use hikage_bake::pipeline::{HorizonJob, Job, ReliefJob, StrandsJob};
-use hikage_bake::relief::ReliefFormat;
+use hikage_bake::export::{ExportFormat, export_gltf, export_texture};
+use hikage_bake::jobs::{HorizonJob, ReliefJob, StrandsJob};
 use hikage_bake::run::{RunOptions, check_pipeline, run_one_job, run_pipeline};
-use hikage_bundle::EdgeMode;
+use hikage_bake::{BakeError, Job};
 use hikage_bundle::{Bundle, BundleError};
 
 const EXIT_CODES: &str = "\
@@ -71,98 +68,28 @@ enum Command {
     /// `<id>.height`, `<id>.horizon`, `<id>.ao` added or replaced).
     #[command(after_help = EXIT_CODES)]
     Horizon {
-        /// Heightfield image (PNG 8/16-bit or OpenEXR).
-        input: PathBuf,
+        #[command(flatten)]
+        job: HorizonJob,
         #[command(flatten)]
         target: OneShot,
-        /// Azimuths D (1–256); direction k has φ = 2πk/D.
-        #[arg(long, default_value_t = 32)]
-        directions: u32,
-        /// World units per texel: SX or SX,SY.
-        #[arg(long, value_name = "SX[,SY]", value_parser = parse_texel_size)]
-        texel_size: Option<(f32, f32)>,
-        /// World height = offset + scale × sample (integer images normalised to [0, 1] first).
-        #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
-        height_scale: f32,
-        /// See --height-scale.
-        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-        height_offset: f32,
-        /// wrap: rays continue on the torus (tileable maps); clamp: rays stop at the edge.
-        #[arg(long, value_enum, default_value_t = EdgeArg::Wrap)]
-        edge: EdgeArg,
-        /// Largest horizon distance in world units.
-        #[arg(long, allow_negative_numbers = true)]
-        max_distance: Option<f32>,
-        /// Storage: rg16f (default), rg32f, or rg8 (the paper's memory; β step 0.71°).
-        #[arg(long, value_enum, default_value_t = FormatArg::Rg16f)]
-        format: FormatArg,
-        /// Also write an ambient-occlusion map derived from the horizons.
-        #[arg(long)]
-        ao: bool,
-        /// Texels per ray traced exactly before the line sweep takes over (0–64).
-        #[arg(long, default_value_t = hikage_bake::horizon::DEFAULT_NEAR_FIELD)]
-        near_field: u32,
-        /// Channel of the input image to take.
-        #[arg(long)]
-        channel: Option<String>,
     },
     /// Bake relief-mapping depth maps (one per hemisphere direction) and the max-mip pyramid of
     /// one heightfield into BUNDLE (assets `<id>.relief` and `<id>.maxmip` added or replaced).
     #[command(after_help = EXIT_CODES)]
     Relief {
-        /// Heightfield image (PNG 8/16-bit or OpenEXR; samples in [0, 1], power-of-two sides).
-        input: PathBuf,
+        #[command(flatten)]
+        job: ReliefJob,
         #[command(flatten)]
         target: OneShot,
-        /// Rows of zenith angle θ (1–128); θ_i = (i + ½)·90°/N.
-        #[arg(long, default_value_t = 32)]
-        theta: u32,
-        /// Azimuths φ per row (1–128); φ_j = 360°·j/M.
-        #[arg(long, default_value_t = 16)]
-        phi: u32,
-        /// Width of the stored maps: a power of two up to the map width (MIN-downscaled);
-        /// default 32, or the map width when smaller.
-        #[arg(long)]
-        size: Option<u32>,
-        /// Relief thickness as a share of the map width.
-        #[arg(long, default_value_t = 0.1)]
-        depth_scale: f32,
-        /// Storage: r8 (default, the paper's memory) or r16f; both rounded down.
-        #[arg(long, value_enum, default_value_t = ReliefFormatArg::R8)]
-        format: ReliefFormatArg,
-        /// Channel of the input image to take.
-        #[arg(long)]
-        channel: Option<String>,
     },
     /// Bake hair strip meshes from a `.hair` file or OBJ polylines into BUNDLE (`<id>.strips`,
     /// and `<id>.ribbons` with --ribbons). Widths are full widths in the input's units.
     #[command(after_help = EXIT_CODES)]
     Strands {
-        /// Cem Yuksel `.hair` file or Wavefront OBJ with `l` polylines.
-        input: PathBuf,
+        #[command(flatten)]
+        job: StrandsJob,
         #[command(flatten)]
         target: OneShot,
-        /// Opacity set width (default: shading width × 1.40/0.16, the paper's ratio).
-        #[arg(long)]
-        opacity_width: Option<f32>,
-        /// Opacity set opacity (default: shading opacity × 0.0165/0.366).
-        #[arg(long)]
-        opacity_alpha: Option<f32>,
-        /// Shading set width (default: the input's default thickness).
-        #[arg(long)]
-        shading_width: Option<f32>,
-        /// Shading set opacity (default: 1 − the input's default transparency).
-        #[arg(long)]
-        shading_alpha: Option<f32>,
-        /// Choose the opacity set from the strand density for an opacity map of N² texels.
-        #[arg(long, value_name = "N", num_args = 0..=1, default_missing_value = "256")]
-        auto: Option<u32>,
-        /// Share of the width lost at the tip (0–1).
-        #[arg(long, default_value_t = 0.0)]
-        taper: f32,
-        /// Also bake a fixed-orientation ribbon mesh (minimum-twist frames).
-        #[arg(long)]
-        ribbons: bool,
     },
     /// Export a texture asset as OpenEXR (one layer per slice) or raw little-endian f32.
     #[command(after_help = EXIT_CODES)]
@@ -203,35 +130,6 @@ struct OneShot {
     /// Bake even if unchanged; replace an unreadable bundle.
     #[arg(long)]
     force: bool,
-}
-
-#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum EdgeArg {
-    Wrap,
-    Clamp,
-}
-
-#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum FormatArg {
-    Rg16f,
-    Rg32f,
-    Rg8,
-}
-
-#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
-enum ReliefFormatArg {
-    R8,
-    R16f,
-}
-
-fn parse_texel_size(s: &str) -> Result<(f32, f32), String> {
-    let parts: Vec<&str> = s.split(',').collect();
-    let num = |p: &str| p.trim().parse::<f32>().map_err(|e| format!("{p:?}: {e}"));
-    match parts.as_slice() {
-        [x] => num(x).map(|x| (x, x)),
-        [x, y] => Ok((num(x)?, num(y)?)),
-        _ => Err("expected SX or SX,SY".into()),
-    }
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -280,78 +178,20 @@ fn run(cli: Cli) -> Result<(), Failure> {
         Command::Validate { path, format } => validate(&path, format),
         Command::Inspect { bundle, format } => inspect(&bundle, format),
         Command::Export { bundle, asset, out, gltf, raw, channel } => match (out, gltf) {
-            (_, Some(path)) => export_gltf(&bundle, &asset, &path),
+            (_, Some(path)) => export_mesh(&bundle, &asset, &path),
             (Some(out), None) => export(&bundle, &asset, &out, raw, channel.as_deref()),
             (None, None) => unreachable!("clap requires --out or --gltf"),
         },
-        Command::Horizon {
-            input,
-            target,
-            directions,
-            texel_size,
-            height_scale,
-            height_offset,
-            edge,
-            max_distance,
-            format,
-            ao,
-            near_field,
-            channel,
-        } => {
-            let mut job = HorizonJob::new(&target.id_for(&input), input);
-            job.channel = channel;
-            job.texel_size = texel_size.unwrap_or((1.0, 1.0));
-            job.height_scale = height_scale;
-            job.height_offset = height_offset;
-            job.directions = directions;
-            job.edge = match edge {
-                EdgeArg::Wrap => EdgeMode::Wrap,
-                EdgeArg::Clamp => EdgeMode::Clamp,
-            };
-            job.max_distance = max_distance;
-            job.format = match format {
-                FormatArg::Rg16f => HorizonFormat::Rg16Float,
-                FormatArg::Rg32f => HorizonFormat::Rg32Float,
-                FormatArg::Rg8 => HorizonFormat::Rg8Unorm,
-            };
-            job.ao = ao;
-            job.near_field = near_field;
+        Command::Horizon { mut job, target } => {
+            job.id = target.id_for(&job.input);
             one_shot(Job::Horizon(job), &target)
         }
-        Command::Relief { input, target, theta, phi, size, depth_scale, format, channel } => {
-            let mut job = ReliefJob::new(&target.id_for(&input), input);
-            job.channel = channel;
-            job.theta = theta;
-            job.phi = phi;
-            job.size = size;
-            job.depth_scale = depth_scale;
-            job.format = match format {
-                ReliefFormatArg::R8 => ReliefFormat::R8Unorm,
-                ReliefFormatArg::R16f => ReliefFormat::R16Float,
-            };
+        Command::Relief { mut job, target } => {
+            job.id = target.id_for(&job.input);
             one_shot(Job::Relief(job), &target)
         }
-        Command::Strands {
-            input,
-            target,
-            opacity_width,
-            opacity_alpha,
-            shading_width,
-            shading_alpha,
-            auto,
-            taper,
-            ribbons,
-        } => {
-            let job = StrandsJob {
-                opacity_width,
-                opacity_alpha,
-                shading_width,
-                shading_alpha,
-                auto,
-                taper,
-                ribbons,
-                ..StrandsJob::new(&target.id_for(&input), input)
-            };
+        Command::Strands { mut job, target } => {
+            job.id = target.id_for(&job.input);
             one_shot(Job::Strands(job), &target)
         }
     }
@@ -370,8 +210,8 @@ fn one_shot(job: Job, target: &OneShot) -> Result<(), Failure> {
     let out = &target.out;
     let observer = progress::Bars::new();
     let options = RunOptions { force: target.force, threads: target.jobs.map(usize::from), observer: &observer };
-    let report =
-        run_one_job(&job, out, &options).with_context(|| format!("baking `{}` into {}", job.id(), out.display()));
+    let report = run_one_job(&job, out, &options)
+        .with_context(|| format!("baking `{}` into {}", job.baker().id(), out.display()));
     observer.finish();
     let report = report?;
     println!("{}: baked {}, skipped {}", report.bundle.display(), report.baked.len(), report.skipped.len());
@@ -490,9 +330,9 @@ fn inspect(dir: &Path, format: OutputFormat) -> Result<(), Failure> {
     Ok(())
 }
 
-fn export_gltf(dir: &Path, asset: &str, out: &Path) -> Result<(), Failure> {
+fn export_mesh(dir: &Path, asset: &str, out: &Path) -> Result<(), Failure> {
     let bundle = Bundle::open(dir).with_context(|| format!("opening {}", dir.display()))?;
-    let (vertices, indices) = hikage_bake::gltf::export_gltf(&bundle, asset, out)
+    let (vertices, indices) = export_gltf(&bundle, asset, out)
         .with_context(|| format!("exporting `{asset}` from {} as glTF", dir.display()))?;
     println!("{}: {vertices} vertices, {indices} indices", out.display());
     Ok(())

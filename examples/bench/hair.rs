@@ -2,7 +2,7 @@
 //! peak memory against the output's size.
 
 use hikage_bake::strands::strips::{self, StripSets};
-use hikage_bake::synth;
+use hikage_devkit::synth;
 
 use crate::best_of;
 

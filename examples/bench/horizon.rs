@@ -2,8 +2,10 @@
 
 use crate::{best_of, peak_rss_mib, reset_peak_rss, rss_mib};
 use hikage_bake::heightfield::Heightfield;
-use hikage_bake::horizon::{self, Edge, HorizonFormat, HorizonSettings, OPEN_SKY_SLOPE, reference};
-use hikage_bake::synth;
+use hikage_bake::horizon::{self, HorizonFormat, HorizonParams, OPEN_SKY_SLOPE};
+use hikage_bundle::EdgeMode;
+use hikage_devkit::brute_force;
+use hikage_devkit::synth;
 
 fn terrain(n: u32) -> Heightfield {
     let mut hf = Heightfield::from_samples(n, n, synth::terrain(n));
@@ -27,7 +29,7 @@ pub fn run() {
 fn brute_force_rows() {
     let hf = terrain(256);
     let s =
-        HorizonSettings { directions: 16, edge: Edge::Clamp, format: HorizonFormat::Rg32Float, ..Default::default() };
+        HorizonParams { directions: 16, edge: EdgeMode::Clamp, format: HorizonFormat::Rg32Float, ..Default::default() };
     let (t_fast, baked) = best_of(3, || horizon::bake(&hf, &s, &|_, _| {}).expect("valid settings"));
     let (t_brute, brute) = best_of(1, || {
         use rayon::prelude::*;
@@ -35,7 +37,7 @@ fn brute_force_rows() {
             .into_par_iter()
             .map(|i| {
                 let phi = std::f64::consts::TAU * (i / (256 * 256)) as f64 / 16.0;
-                reference::brute_force(&hf, &s, i / 256 % 256, i % 256, phi).0
+                brute_force::horizon(&hf, &s, i / 256 % 256, i % 256, phi).0
             })
             .collect::<Vec<f64>>()
     });
@@ -75,7 +77,7 @@ fn throughput_rows() {
     let mut t_rg16f = 0.0;
     for (size, dirs, runs) in [(1024u32, 16u32, 3usize), (2048, 64, 2)] {
         let hf = terrain(size);
-        let s = HorizonSettings { directions: dirs, edge: Edge::Clamp, ..Default::default() };
+        let s = HorizonParams { directions: dirs, edge: EdgeMode::Clamp, ..Default::default() };
         // The peak of the bakes alone: above what the process holds with the input made (the
         // allocator may keep memory that making it or earlier rows freed).
         let base = rss_mib();
@@ -103,16 +105,16 @@ fn throughput_rows() {
     // map length on the torus), against the rg16f clamp bake above.
     let td = size as f64 * size as f64 * dirs as f64;
     for (format, edge) in [
-        (HorizonFormat::Rg8Unorm, Edge::Clamp),
-        (HorizonFormat::Rg32Float, Edge::Clamp),
-        (HorizonFormat::Rg16Float, Edge::Wrap),
+        (HorizonFormat::Rg8Unorm, EdgeMode::Clamp),
+        (HorizonFormat::Rg32Float, EdgeMode::Clamp),
+        (HorizonFormat::Rg16Float, EdgeMode::Wrap),
     ] {
-        let s = HorizonSettings { directions: dirs, edge, format, ..Default::default() };
+        let s = HorizonParams { directions: dirs, edge, format, ..Default::default() };
         let (t, _) = best_of(3, || horizon::bake(&hf, &s, &|_, _| {}).expect("valid settings"));
         println!(
             "| horizon bake, {} | {size}²×{dirs}, {} | {t:.2} s | {:.2e} texel-dir/s | rg16f, clamp {t_rg16f:.2} s (above) | {:.2}× its time |",
             format.texture_format().short_name(),
-            if edge == Edge::Wrap { "wrap" } else { "clamp" },
+            if edge == EdgeMode::Wrap { "wrap" } else { "clamp" },
             td / t,
             t / t_rg16f
         );
@@ -121,7 +123,7 @@ fn throughput_rows() {
     for format in [HorizonFormat::Rg8Unorm, HorizonFormat::Rg32Float] {
         let (size, dirs) = (2048u32, 64u32);
         let hf = terrain(size);
-        let s = HorizonSettings { directions: dirs, edge: Edge::Clamp, format, ..Default::default() };
+        let s = HorizonParams { directions: dirs, edge: EdgeMode::Clamp, format, ..Default::default() };
         let base = rss_mib();
         let reset = reset_peak_rss();
         let out = horizon::bake(&hf, &s, &|_, _| {}).expect("valid settings");
@@ -161,7 +163,7 @@ fn grass_row(size: u32) {
         return;
     }
     let hf = terrain(size);
-    let s = HorizonSettings { directions: dirs, edge: Edge::Clamp, ..Default::default() };
+    let s = HorizonParams { directions: dirs, edge: EdgeMode::Clamp, ..Default::default() };
     let (t_ours, _) = best_of(3, || horizon::bake(&hf, &s, &|_, _| {}).expect("valid settings"));
     let dir = std::env::temp_dir().join(format!("hikage-bench-grass-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");

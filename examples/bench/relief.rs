@@ -4,9 +4,9 @@
 use std::path::Path;
 
 use hikage_bake::heightfield::{Heightfield, LoadOptions, load_samples};
-use hikage_bake::relief::{self, ReliefSettings, march_depth};
-use hikage_bake::synth;
+use hikage_bake::relief::{self, ReliefParams, march_depth};
 use hikage_bundle::relief::ReliefRay;
+use hikage_devkit::synth;
 use hikage_runtime::relief::{Reads, ReliefMaps, Tracer, fine_march};
 use rayon::prelude::*;
 
@@ -91,7 +91,7 @@ pub fn run() {
     println!("Relief bake ({threads} threads; 32 θ × 16 φ = 512 directions, 32² 8-bit maps, depth 0.1 × width)\n");
     println!("| input | bake | baseline | ratio |");
     println!("|---|---|---|---|");
-    let defaults = ReliefSettings::default();
+    let defaults = ReliefParams::default();
     for name in ["fbm", "bricks", "spikes"] {
         let n = 512;
         let samples = match name {
@@ -148,7 +148,7 @@ pub fn run() {
         // The paper's 32² maps for every tracer, then coarser and finer maps for the two that
         // read them.
         for size in [32u32, 16, 128] {
-            let settings = ReliefSettings { size: Some(size), ..defaults.clone() };
+            let settings = ReliefParams { size: Some(size), ..defaults.clone() };
             let baked = relief::bake(&hf, &settings, &|_, _| {}).expect("valid");
             let info = hikage_bundle::ReliefSettings {
                 max_mip: String::new(),

@@ -1,7 +1,7 @@
-//! See `hikage_bake::fuzzing::bundle`: any bytes give a value or an error, never a panic.
+//! See `hikage_devkit::fuzzing::bundle`: any bytes give a value or an error, never a panic.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    hikage_bake::fuzzing::bundle(data);
+    hikage_devkit::fuzzing::bundle(data);
 });

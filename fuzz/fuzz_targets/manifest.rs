@@ -3,5 +3,5 @@
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    hikage_bake::fuzzing::manifest(data);
+    hikage_devkit::fuzzing::manifest(data);
 });

@@ -1,7 +1,7 @@
-//! See `hikage_bake::fuzzing::obj_polylines`: any bytes give a value or an error, never a panic.
+//! See `hikage_devkit::fuzzing::obj_polylines`: any bytes give a value or an error, never a panic.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    hikage_bake::fuzzing::obj_polylines(data);
+    hikage_devkit::fuzzing::obj_polylines(data);
 });

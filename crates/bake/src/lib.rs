@@ -1,14 +1,16 @@
 //! hikage-bake: turns source assets into bundle payloads.
 //!
 //! - [`heightfield`] imports PNG (8/16-bit) and OpenEXR (f16/f32) heightfields with their world
-//!   units (texel size, height scale and offset; DESIGN.md "World units").
+//!   units (texel size, height scale and offset; see `docs/conventions.md`).
 //! - [`pipeline`] parses `pipeline.ron`: the output bundle and a list of jobs.
 //! - [`run`] runs a pipeline incrementally: a job whose input hash (input bytes, canonical
 //!   settings, baker algorithm version) matches the existing asset is skipped, and the bundle
 //!   is replaced atomically. [`run::run_for_build_script`] is the one call a `build.rs` needs.
-//! - [`export`] writes a texture asset back out as EXR or raw little-endian f32.
-//! - [`synth`] holds the procedural generators that make the sample data in `data/` and the
-//!   test inputs (tileable bump maps, rough terrain, relief test families).
+//! - [`jobs`] holds the job kinds (`Heightfield`, `Horizon`, `Curvature`, `Relief`, `Strands`)
+//!   behind one [`Baker`] interface; [`horizon`], [`relief`], [`strands`] and [`curvature`] are
+//!   the algorithms they call, usable on their own.
+//! - [`export`] writes assets back out: textures as EXR or raw little-endian f32, meshes as
+//!   binary glTF.
 //!
 //! The library never prints (except the `cargo:` lines a build script asks for); progress goes
 //! to an [`run::Observer`].
@@ -21,20 +23,20 @@
 pub mod curvature;
 mod error;
 pub mod export;
-pub mod fuzzing;
-pub mod gltf;
 mod hash;
 pub mod heightfield;
 pub mod horizon;
 pub mod jobs;
+mod limits;
 pub mod mesh;
 pub mod pipeline;
 pub mod relief;
 pub mod run;
 pub mod strands;
-pub mod synth;
 
 pub use error::BakeError;
 pub use heightfield::{Heightfield, LoadOptions};
-pub use pipeline::{Job, Pipeline};
+pub use jobs::{Baker, Job};
+pub use limits::InputLimits;
+pub use pipeline::Pipeline;
 pub use run::{Observer, RunOptions, RunReport, run_pipeline};

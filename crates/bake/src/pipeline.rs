@@ -18,11 +18,8 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::error::BakeError;
-pub use crate::jobs::curvature::CurvatureJob;
-pub use crate::jobs::heightfield::{HeightFormat, HeightfieldJob};
-pub use crate::jobs::horizon::HorizonJob;
-pub use crate::jobs::relief::ReliefJob;
-pub use crate::jobs::strands::StrandsJob;
+use crate::jobs::Job;
+use crate::limits::InputLimits;
 
 /// A parsed pipeline file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -35,40 +32,6 @@ pub struct Pipeline {
     pub limits: InputLimits,
     /// The jobs, baked in order.
     pub jobs: Vec<Job>,
-}
-
-/// Limits applied to input files before decoding them.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct InputLimits {
-    /// Largest image width or height.
-    #[serde(default = "default_max_dimension")]
-    pub max_dimension: u32,
-}
-
-fn default_max_dimension() -> u32 {
-    16_384
-}
-
-impl Default for InputLimits {
-    fn default() -> Self {
-        InputLimits { max_dimension: default_max_dimension() }
-    }
-}
-
-/// One job of a pipeline. The variant names the baker.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub enum Job {
-    /// Import a heightfield image as a `heightfield` asset.
-    Heightfield(HeightfieldJob),
-    /// Bake horizon and distance maps (and optionally ambient occlusion) from a heightfield.
-    Horizon(HorizonJob),
-    /// Per-vertex principal curvatures of an OBJ mesh with UVs.
-    Curvature(CurvatureJob),
-    /// Bake relief-mapping depth maps and a max-mip pyramid from a heightfield.
-    Relief(ReliefJob),
-    /// Bake hair strip meshes (shading and opacity sets) from `.hair` or OBJ polylines.
-    Strands(StrandsJob),
 }
 
 /// A pipeline with the file it came from.
@@ -130,7 +93,8 @@ impl Pipeline {
     pub fn check(&self, path: &Path) -> Result<(), BakeError> {
         let mut seen = std::collections::BTreeMap::new();
         for job in &self.jobs {
-            job.check().map_err(|message| BakeError::Setting {
+            let job = job.baker();
+            crate::jobs::check(job).map_err(|message| BakeError::Setting {
                 path: path.to_path_buf(),
                 job: job.id().to_string(),
                 message,

@@ -33,11 +33,14 @@ pub const DEFAULT_SIZE: u32 = 32;
 
 /// Storage of the depth maps.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum ReliefFormat {
     /// 8-bit depth, rounded down (the paper's memory).
     #[default]
+    #[cfg_attr(feature = "clap", value(name = "r8"))]
     R8Unorm,
     /// Half-float depth, rounded down.
+    #[cfg_attr(feature = "clap", value(name = "r16f"))]
     R16Float,
 }
 
@@ -70,9 +73,9 @@ pub fn f16_round_down(x: f32) -> f32 {
     }
 }
 
-/// Settings of a relief bake.
+/// Parameters of a relief bake.
 #[derive(Clone, Debug, PartialEq)]
-pub struct ReliefSettings {
+pub struct ReliefParams {
     /// Rows of zenith angle (1–128).
     pub theta: u32,
     /// Azimuths per row (1–128); `theta × phi` at most [`MAX_DIRECTIONS`].
@@ -86,13 +89,13 @@ pub struct ReliefSettings {
     pub format: ReliefFormat,
 }
 
-impl Default for ReliefSettings {
+impl Default for ReliefParams {
     fn default() -> Self {
-        ReliefSettings { theta: 32, phi: 16, size: None, depth_scale: 0.1, format: ReliefFormat::R8Unorm }
+        ReliefParams { theta: 32, phi: 16, size: None, depth_scale: 0.1, format: ReliefFormat::R8Unorm }
     }
 }
 
-impl ReliefSettings {
+impl ReliefParams {
     /// Checks the settings on their own (no map needed).
     pub fn check(&self) -> Result<(), String> {
         for (name, n) in [("theta", self.theta), ("phi", self.phi)] {
@@ -218,7 +221,7 @@ pub fn min_downscale(values: &[f32], w: u32, h: u32, factor: u32) -> Vec<f32> {
 }
 
 /// Bakes the depth maps and the max-mip pyramid. `progress` gets (layers done, layers).
-pub fn bake(hf: &Heightfield, s: &ReliefSettings, progress: &(dyn Fn(u64, u64) + Sync)) -> Result<BakedRelief, String> {
+pub fn bake(hf: &Heightfield, s: &ReliefParams, progress: &(dyn Fn(u64, u64) + Sync)) -> Result<BakedRelief, String> {
     s.check_for(hf.width, hf.height)?;
     let heights = stored_heights(hf)?;
     let mm = MaxMip::new(hf.width, hf.height, heights)?;

@@ -10,7 +10,8 @@ use std::path::{Path, PathBuf};
 use hikage_bundle::{BundleWriter, WriteMode};
 
 use crate::error::BakeError;
-use crate::jobs::{BakedPayload, JobContext};
+use crate::jobs::{BakedPayload, Baker, Job, JobContext};
+use crate::limits::InputLimits;
 use crate::pipeline::{LoadedPipeline, Pipeline};
 
 /// Receives progress while a pipeline runs. Implementations must be cheap: `progress` may be
@@ -90,6 +91,7 @@ pub fn run_loaded(loaded: &LoadedPipeline, options: &RunOptions) -> Result<RunRe
     report.watched.push(loaded.path.clone());
     let total = loaded.pipeline.jobs.len();
     for (index, job) in loaded.pipeline.jobs.iter().enumerate() {
+        let job = job.baker();
         run_job(&mut writer, job, &loaded.base_dir, &loaded.pipeline.limits, options, (index, total), &mut report)?;
     }
     let summary = writer.commit()?;
@@ -101,9 +103,9 @@ pub fn run_loaded(loaded: &LoadedPipeline, options: &RunOptions) -> Result<RunRe
 /// Bakes one job into `writer`, or keeps its assets when its input hash is unchanged.
 fn run_job(
     writer: &mut BundleWriter,
-    job: &crate::pipeline::Job,
+    job: &dyn Baker,
     base_dir: &Path,
-    limits: &crate::pipeline::InputLimits,
+    limits: &InputLimits,
     options: &RunOptions,
     (index, total): (usize, usize),
     report: &mut RunReport,
@@ -111,7 +113,7 @@ fn run_job(
     let id = job.id().to_string();
     options.observer.job_started(index, total, &id, job.kind());
     report.watched.extend(job.inputs(base_dir));
-    let hash = job.input_hash(base_dir, limits)?;
+    let hash = crate::hash::job_hash(job, base_dir, limits)?;
     let reusable: Option<Vec<_>> =
         if options.force { None } else { job.outputs().iter().map(|o| writer.reusable(o, &hash)).collect() };
     if let Some(assets) = reusable {
@@ -126,8 +128,8 @@ fn run_job(
     let ctx = JobContext { base_dir, limits, progress: &progress };
     for asset in job.bake(&ctx)? {
         match &asset.payload {
-            BakedPayload::Texture(t) => writer.put_texture(&asset.id, asset.kind, asset.settings, &hash, t)?,
-            BakedPayload::Mesh(m) => writer.put_mesh(&asset.id, asset.kind, asset.settings, &hash, m)?,
+            BakedPayload::Texture(t) => writer.put_texture(&asset.id, asset.settings, &hash, t)?,
+            BakedPayload::Mesh(m) => writer.put_mesh(&asset.id, asset.settings, &hash, m)?,
         };
     }
     report.baked.push(id.clone());
@@ -138,8 +140,9 @@ fn run_job(
 /// Runs one job against the bundle in `bundle` (created if missing), adding or replacing the
 /// job's assets and keeping every other asset: the one-shot commands (`hikage horizon …`).
 /// Relative input paths are resolved against the current directory.
-pub fn run_one_job(job: &crate::pipeline::Job, bundle: &Path, options: &RunOptions) -> Result<RunReport, BakeError> {
-    job.check().map_err(|message| BakeError::Setting {
+pub fn run_one_job(job: &Job, bundle: &Path, options: &RunOptions) -> Result<RunReport, BakeError> {
+    let job = job.baker();
+    crate::jobs::check(job).map_err(|message| BakeError::Setting {
         path: PathBuf::from("<command line>"),
         job: job.id().to_string(),
         message,
@@ -151,7 +154,7 @@ pub fn run_one_job(job: &crate::pipeline::Job, bundle: &Path, options: &RunOptio
             BundleWriter::open(bundle, WriteMode::Update)?
         };
         let mut report = RunReport { bundle: bundle.to_path_buf(), ..Default::default() };
-        let limits = crate::pipeline::InputLimits::default();
+        let limits = InputLimits::default();
         run_job(&mut writer, job, Path::new(""), &limits, options, (0, 1), &mut report)?;
         let summary = writer.commit()?;
         report.removed = summary.removed;
@@ -176,6 +179,7 @@ pub fn check_pipeline(path: &Path, observer: &dyn Observer) -> Result<PipelineCh
     let mut check = PipelineCheck::default();
     let total = loaded.pipeline.jobs.len();
     for (index, job) in loaded.pipeline.jobs.iter().enumerate() {
+        let job = job.baker();
         observer.job_started(index, total, job.id(), job.kind());
         let progress = |_: u64, _: u64| {};
         let ctx = JobContext { base_dir: &loaded.base_dir, limits: &loaded.pipeline.limits, progress: &progress };

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use hikage_bake::curvature::{CurvatureError, compute};
 use hikage_bake::mesh::{self, obj};
-use hikage_bake::synth;
+use hikage_devkit::synth;
 
 #[test]
 fn sphere_has_equal_principal_curvatures_of_one_over_r() {

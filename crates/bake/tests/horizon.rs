@@ -1,13 +1,12 @@
-//! Horizon maps against the independent brute force of `horizon::reference` (a ray per texel,
+//! Horizon maps against the independent brute force of `hikage_devkit::brute_force` (a ray per texel,
 //! every grid-line crossing, plain texel space). Accuracy gates from the horizon issue, in
 //! degrees of β.
 
 use hikage_bake::heightfield::Heightfield;
-use hikage_bake::horizon::reference::brute_force as brute;
-use hikage_bake::horizon::{
-    self, DEFAULT_NEAR_FIELD, Edge, HorizonFormat, HorizonSettings, HorizonTexture, OPEN_SKY_SLOPE,
-};
-use hikage_bake::synth;
+use hikage_bake::horizon::{self, DEFAULT_NEAR_FIELD, HorizonFormat, HorizonParams, HorizonTexture, OPEN_SKY_SLOPE};
+use hikage_bundle::EdgeMode;
+use hikage_devkit::brute_force;
+use hikage_devkit::synth;
 
 #[derive(Debug)]
 struct Stats {
@@ -18,7 +17,7 @@ struct Stats {
     dist_ok: f64,
 }
 
-fn compare(hf: &Heightfield, s: &HorizonSettings) -> Stats {
+fn compare(hf: &Heightfield, s: &HorizonParams) -> Stats {
     let baked: HorizonTexture = horizon::bake(hf, s, &|_, _| {}).unwrap();
     let (w, h, d) = (hf.width as usize, hf.height as usize, s.directions as usize);
     let (mut errs, mut max_axis) = (Vec::new(), 0.0f64);
@@ -30,7 +29,7 @@ fn compare(hf: &Heightfield, s: &HorizonSettings) -> Stats {
         for row in 0..h {
             for col in 0..w {
                 let (bs, bd) = horizon::decode(&baked, k, row, col);
-                let (rs, rd) = brute(hf, s, row, col, phi);
+                let (rs, rd) = brute_force::horizon(hf, s, row, col, phi);
                 let open_b = bs <= OPEN_SKY_SLOPE;
                 let open_r = rs == f64::NEG_INFINITY;
                 let err = if open_b && open_r {
@@ -80,41 +79,41 @@ fn field(n: u32, samples: Vec<f32>, texel: (f32, f32), scale: f32) -> Heightfiel
     hf
 }
 
-fn settings(directions: u32, edge: Edge) -> HorizonSettings {
-    HorizonSettings { directions, edge, format: HorizonFormat::Rg32Float, ..Default::default() }
+fn settings(directions: u32, edge: EdgeMode) -> HorizonParams {
+    HorizonParams { directions, edge, format: HorizonFormat::Rg32Float, ..Default::default() }
 }
 
 #[test]
 fn smooth_map_meets_the_gates_in_both_edge_modes() {
     let hf = field(128, synth::dune_ripples(128), (1.0, 1.0), 12.0);
-    gates("smooth wrap", &compare(&hf, &settings(32, Edge::Wrap)));
-    gates("smooth clamp", &compare(&hf, &settings(32, Edge::Clamp)));
+    gates("smooth wrap", &compare(&hf, &settings(32, EdgeMode::Wrap)));
+    gates("smooth clamp", &compare(&hf, &settings(32, EdgeMode::Clamp)));
 }
 
 #[test]
 fn rough_terrain_meets_the_gates() {
     // Relief comparable to the texel spacing: 0–2000 m over 80 m texels, scarps and cliffs.
     let hf = field(128, synth::terrain(128), (80.0, 80.0), 2000.0);
-    gates("rough clamp", &compare(&hf, &settings(32, Edge::Clamp)));
+    gates("rough clamp", &compare(&hf, &settings(32, EdgeMode::Clamp)));
 }
 
 #[test]
 fn rough_tileable_map_and_anisotropic_texels_meet_the_gates() {
     let hf = field(96, synth::reptile_cells(96), (1.0, 1.0), 6.0);
-    gates("reptile wrap", &compare(&hf, &settings(24, Edge::Wrap)));
+    gates("reptile wrap", &compare(&hf, &settings(24, EdgeMode::Wrap)));
     let hf = field(96, synth::terrain(96), (80.0, 30.0), 1500.0);
-    gates("anisotropic clamp", &compare(&hf, &settings(24, Edge::Clamp)));
+    gates("anisotropic clamp", &compare(&hf, &settings(24, EdgeMode::Clamp)));
 }
 
 #[test]
 fn max_distance_limits_the_search() {
     let hf = field(96, synth::terrain(96), (10.0, 10.0), 300.0);
-    let mut s = settings(16, Edge::Clamp);
+    let mut s = settings(16, EdgeMode::Clamp);
     s.max_distance = Some(250.0);
     gates("max distance clamp", &compare(&hf, &s));
     // Wrap is for tileable maps: a non-tileable map wrapped has a cliff at the seam.
     let hf = field(96, synth::reptile_cells(96), (1.0, 1.0), 6.0);
-    let mut s = settings(16, Edge::Wrap);
+    let mut s = settings(16, EdgeMode::Wrap);
     s.max_distance = Some(40.0);
     gates("max distance wrap", &compare(&hf, &s));
 }
@@ -122,7 +121,7 @@ fn max_distance_limits_the_search() {
 #[test]
 fn flat_map_has_zero_horizons_and_open_sky_at_clamped_edges() {
     let hf = field(32, vec![0.25; 32 * 32], (1.0, 1.0), 3.0);
-    let baked = horizon::bake(&hf, &settings(8, Edge::Clamp), &|_, _| {}).unwrap();
+    let baked = horizon::bake(&hf, &settings(8, EdgeMode::Clamp), &|_, _| {}).unwrap();
     for k in 0..8 {
         for row in 0..32 {
             for col in 0..32 {
@@ -136,7 +135,7 @@ fn flat_map_has_zero_horizons_and_open_sky_at_clamped_edges() {
             }
         }
     }
-    let baked = horizon::bake(&hf, &settings(8, Edge::Wrap), &|_, _| {}).unwrap();
+    let baked = horizon::bake(&hf, &settings(8, EdgeMode::Wrap), &|_, _| {}).unwrap();
     assert!((0..8).all(|k| horizon::decode(&baked, k, 5, 7).0 == 0.0));
 }
 
@@ -150,7 +149,7 @@ fn single_wall_has_the_analytic_horizon() {
         samples[row * 64 + wall] = 1.0;
     }
     let hf = field(n, samples, (2.0, 2.0), height);
-    for edge in [Edge::Clamp, Edge::Wrap] {
+    for edge in [EdgeMode::Clamp, EdgeMode::Wrap] {
         let baked = horizon::bake(&hf, &settings(4, edge), &|_, _| {}).unwrap();
         for col in 0..wall {
             let (s, d) = horizon::decode(&baked, 0, 17, col);
@@ -167,7 +166,7 @@ fn single_wall_has_the_analytic_horizon() {
 #[test]
 fn output_is_identical_at_any_thread_count() {
     let hf = field(64, synth::terrain(64), (5.0, 5.0), 100.0);
-    let s = HorizonSettings { directions: 16, ..Default::default() };
+    let s = HorizonParams { directions: 16, ..Default::default() };
     let one =
         rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| horizon::bake(&hf, &s, &|_, _| {}));
     let two =
@@ -182,8 +181,8 @@ fn eight_bit_maps_are_the_exact_map_rounded() {
     // and d / distance_scale as 8-bit unorms).
     let unorm = |x: f32| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
     let hf = field(128, synth::terrain(128), (1.0, 1.0), 6.0);
-    for (edge, max_distance) in [(Edge::Wrap, Some(40.0)), (Edge::Clamp, None)] {
-        let mut s = HorizonSettings { max_distance, ..settings(16, edge) };
+    for (edge, max_distance) in [(EdgeMode::Wrap, Some(40.0)), (EdgeMode::Clamp, None)] {
+        let mut s = HorizonParams { max_distance, ..settings(16, edge) };
         let exact = horizon::bake(&hf, &s, &|_, _| {}).unwrap();
         s.format = HorizonFormat::Rg8Unorm;
         let byte = horizon::bake(&hf, &s, &|_, _| {}).unwrap();
@@ -201,10 +200,10 @@ fn eight_bit_maps_are_the_exact_map_rounded() {
 fn bad_settings_are_refused() {
     let hf = field(8, vec![0.0; 64], (1.0, 1.0), 1.0);
     for s in [
-        HorizonSettings { directions: 0, ..Default::default() },
-        HorizonSettings { directions: 257, ..Default::default() },
-        HorizonSettings { max_distance: Some(0.0), ..Default::default() },
-        HorizonSettings { max_distance: Some(f32::NAN), ..Default::default() },
+        HorizonParams { directions: 0, ..Default::default() },
+        HorizonParams { directions: 257, ..Default::default() },
+        HorizonParams { max_distance: Some(0.0), ..Default::default() },
+        HorizonParams { max_distance: Some(f32::NAN), ..Default::default() },
     ] {
         assert!(horizon::bake(&hf, &s, &|_, _| {}).is_err(), "{s:?}");
     }
@@ -221,11 +220,11 @@ fn tiny_and_oblong_maps_stay_close_to_the_brute_force() {
         let mut hf = Heightfield::from_samples(w as u32, h as u32, samples);
         hf.texel_size = (1.0, 1.5);
         hf.height_scale = 4.0;
-        for edge in [Edge::Clamp, Edge::Wrap] {
+        for edge in [EdgeMode::Clamp, EdgeMode::Wrap] {
             for near_field in [0, 1, 3, 16] {
                 for max_distance in [None, Some(2.5)] {
                     for directions in [8, 7] {
-                        let s = HorizonSettings { near_field, max_distance, ..settings(directions, edge) };
+                        let s = HorizonParams { near_field, max_distance, ..settings(directions, edge) };
                         let st = compare(&hf, &s);
                         // The gates hold with the default near field; shorter ones are only as
                         // good as the line sweep (several degrees on a torus a few texels
@@ -286,15 +285,15 @@ fn random_maps_never_exceed_the_brute_force_and_meet_the_max_gate_on_moderate_re
         let spacing = hf.texel_size.0.min(hf.texel_size.1);
         let moderate = case % 2 == 0;
         hf.height_scale = if moderate { spacing * rng.pick(&[0.5, 1.0, 2.0]) } else { rng.pick(&[5.0, 30.0]) };
-        let edge = rng.pick(&[Edge::Wrap, Edge::Clamp]);
+        let edge = rng.pick(&[EdgeMode::Wrap, EdgeMode::Clamp]);
         let reach = 1.0 + 40.0 * rng.unit();
         let mut max_distance = rng.pick(&[None, Some(reach)]);
-        if edge == Edge::Wrap {
+        if edge == EdgeMode::Wrap {
             // Wrapped rays run at most 4 map lengths; the brute force has no such cap.
             let cap = 4.0 * (w as f32 * hf.texel_size.0).min(h as f32 * hf.texel_size.1);
             max_distance = max_distance.map(|m| m.min(cap));
         }
-        let s = HorizonSettings { max_distance, ..settings(1 + (rng.next() % 24) as u32, edge) };
+        let s = HorizonParams { max_distance, ..settings(1 + (rng.next() % 24) as u32, edge) };
         let what = format!("case {case}: {w}×{h}, kind {kind}, {:?}, scale {}, {s:?}", hf.texel_size, hf.height_scale);
         let baked = horizon::bake(&hf, &s, &|_, _| {}).unwrap();
         let mut max_err = 0.0f64;
@@ -303,7 +302,7 @@ fn random_maps_never_exceed_the_brute_force_and_meet_the_max_gate_on_moderate_re
             for row in 0..h as usize {
                 for col in 0..w as usize {
                     let (bs, _) = horizon::decode(&baked, k, row, col);
-                    let (rs, _) = brute(&hf, &s, row, col, phi);
+                    let (rs, _) = brute_force::horizon(&hf, &s, row, col, phi);
                     let open = rs == f64::NEG_INFINITY;
                     assert_eq!(bs <= OPEN_SKY_SLOPE, open, "{what}: open sky differs at ({row}, {col}), direction {k}");
                     if open {

@@ -1,9 +1,9 @@
 //! Relief depth maps against an independent brute-force march.
 
 use hikage_bake::heightfield::Heightfield;
-use hikage_bake::relief::{self, ReliefFormat, ReliefSettings, march_depth, min_downscale};
-use hikage_bake::synth;
+use hikage_bake::relief::{self, ReliefFormat, ReliefParams, march_depth, min_downscale};
 use hikage_bundle::relief::{MaxMip, ReliefDirections};
+use hikage_devkit::synth;
 
 fn families(n: u32) -> Vec<(&'static str, Vec<f32>)> {
     vec![("fbm", synth::fbm_relief(n)), ("bricks", synth::bricks(n)), ("spikes", synth::spikes_and_walls(n))]
@@ -18,7 +18,7 @@ fn full_resolution_maps_agree_with_a_brute_force_march() {
     let n = 64;
     for (name, samples) in families(n) {
         let hf = Heightfield::from_samples(n, n, samples);
-        let s = ReliefSettings { theta: 6, phi: 8, size: Some(n), depth_scale: 0.1, format: ReliefFormat::R16Float };
+        let s = ReliefParams { theta: 6, phi: 8, size: Some(n), depth_scale: 0.1, format: ReliefFormat::R16Float };
         let baked = relief::bake(&hf, &s, &|_, _| {}).unwrap();
         let stored = baked.depth.to_f32(0);
         let heights = relief::stored_heights(&hf).unwrap();
@@ -54,7 +54,7 @@ fn full_resolution_maps_agree_with_a_brute_force_march() {
 fn flat_map_and_step_have_analytic_depths() {
     let n = 32;
     let hf = Heightfield::from_samples(n, n, vec![0.25; (n * n) as usize]);
-    let s = ReliefSettings { theta: 4, phi: 4, size: Some(n), depth_scale: 0.25, format: ReliefFormat::R16Float };
+    let s = ReliefParams { theta: 4, phi: 4, size: Some(n), depth_scale: 0.25, format: ReliefFormat::R16Float };
     let baked = relief::bake(&hf, &s, &|_, _| {}).unwrap();
     for d in baked.depth.to_f32(0) {
         assert_eq!(d, 0.75);
@@ -63,7 +63,7 @@ fn flat_map_and_step_have_analytic_depths() {
     // texel i < 16 reaches the wall after 16 − (i + ½) texels horizontally.
     let samples: Vec<f32> = (0..n * n).map(|k| if k % n >= 16 { 1.0 } else { 0.0 }).collect();
     let hf = Heightfield::from_samples(n, n, samples);
-    let s = ReliefSettings { theta: 3, phi: 4, size: Some(n), depth_scale: 0.25, format: ReliefFormat::R16Float };
+    let s = ReliefParams { theta: 3, phi: 4, size: Some(n), depth_scale: 0.25, format: ReliefFormat::R16Float };
     let baked = relief::bake(&hf, &s, &|_, _| {}).unwrap();
     let values = baked.depth.to_f32(0);
     let dirs = s.directions();
@@ -85,8 +85,8 @@ fn flat_map_and_step_have_analytic_depths() {
 fn downscaled_maps_are_the_min_of_the_full_maps() {
     let n = 64;
     let hf = Heightfield::from_samples(n, n, synth::bricks(n));
-    let full = ReliefSettings { theta: 4, phi: 4, size: Some(n), depth_scale: 0.1, format: ReliefFormat::R16Float };
-    let small = ReliefSettings { size: Some(16), format: ReliefFormat::R8Unorm, ..full.clone() };
+    let full = ReliefParams { theta: 4, phi: 4, size: Some(n), depth_scale: 0.1, format: ReliefFormat::R16Float };
+    let small = ReliefParams { size: Some(16), format: ReliefFormat::R8Unorm, ..full.clone() };
     let a = relief::bake(&hf, &full, &|_, _| {}).unwrap().depth.to_f32(0);
     let b = relief::bake(&hf, &small, &|_, _| {}).unwrap().depth.to_f32(0);
     let per = (n * n) as usize;
@@ -107,7 +107,7 @@ fn downscaled_maps_are_the_min_of_the_full_maps() {
 fn max_mip_texture_holds_the_pyramid() {
     let n = 16;
     let hf = Heightfield::from_samples(n, n, synth::spikes_and_walls(n));
-    let baked = relief::bake(&hf, &ReliefSettings { size: Some(4), ..Default::default() }, &|_, _| {}).unwrap();
+    let baked = relief::bake(&hf, &ReliefParams { size: Some(4), ..Default::default() }, &|_, _| {}).unwrap();
     let heights = relief::stored_heights(&hf).unwrap();
     let mm = MaxMip::new(n, n, heights).unwrap();
     assert_eq!(baked.max_mip.desc.levels, 5);
@@ -125,14 +125,14 @@ fn max_mip_texture_holds_the_pyramid() {
 #[test]
 fn bad_settings_are_refused() {
     let hf = Heightfield::from_samples(64, 64, vec![0.5; 64 * 64]);
-    let base = ReliefSettings::default();
+    let base = ReliefParams::default();
     for (s, needle) in [
-        (ReliefSettings { theta: 0, ..base.clone() }, "theta"),
-        (ReliefSettings { phi: 100_000, ..base.clone() }, "phi"),
-        (ReliefSettings { theta: 128, phi: 128, ..base.clone() }, "directions"),
-        (ReliefSettings { size: Some(24), ..base.clone() }, "power of two"),
-        (ReliefSettings { size: Some(128), ..base.clone() }, "at most the map width"),
-        (ReliefSettings { depth_scale: f32::NAN, ..base.clone() }, "depth_scale"),
+        (ReliefParams { theta: 0, ..base.clone() }, "theta"),
+        (ReliefParams { phi: 100_000, ..base.clone() }, "phi"),
+        (ReliefParams { theta: 128, phi: 128, ..base.clone() }, "directions"),
+        (ReliefParams { size: Some(24), ..base.clone() }, "power of two"),
+        (ReliefParams { size: Some(128), ..base.clone() }, "at most the map width"),
+        (ReliefParams { depth_scale: f32::NAN, ..base.clone() }, "depth_scale"),
     ] {
         let e = relief::bake(&hf, &s, &|_, _| {}).unwrap_err();
         assert!(e.contains(needle), "{e}");

@@ -8,8 +8,8 @@ use crate::error::BundleError;
 use crate::limits::Limits;
 use crate::manifest::{Asset, AssetKind, MANIFEST_FILE, Manifest, Payload, Settings};
 use crate::mesh::MeshData;
-use crate::names::{is_safe_file_name, is_valid_asset_id};
-use crate::texture::{TextureData, TextureDimension};
+use crate::names::{check_asset_id, is_safe_file_name};
+use crate::texture::{TextureData, TextureDesc, TextureDimension};
 
 /// An opened bundle: its directory and parsed, structurally checked manifest.
 ///
@@ -187,8 +187,8 @@ pub(crate) fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(St
     for (i, a) in manifest.assets.iter().enumerate() {
         let name = if a.id.is_empty() { format!("#{i}") } else { a.id.clone() };
         let mut bad = |m: String| problems.push((name.clone(), m));
-        if !is_valid_asset_id(&a.id) {
-            bad(format!("id {:?} is not valid: expected 1–128 of A–Z a–z 0–9 _ - . not starting with .", a.id));
+        if let Err(m) = check_asset_id(&a.id) {
+            bad(m);
         }
         if !ids.insert(a.id.clone()) {
             bad("duplicate asset id".into());
@@ -207,95 +207,30 @@ pub(crate) fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(St
         if a.byte_length > limits.max_payload_bytes {
             bad(format!("byte_length {} is above the limit of {}", a.byte_length, limits.max_payload_bytes));
         }
-        match (&a.payload, a.kind) {
-            (Payload::Texture(_), kind @ (AssetKind::Mesh | AssetKind::Curvature | AssetKind::Strands)) => {
-                bad(format!("kind {} does not match its texture payload", kind.name()))
-            }
-            (Payload::Texture(t), kind) => {
+        match &a.payload {
+            _ if a.kind.is_mesh() != matches!(a.payload, Payload::Mesh(_)) => bad(format!(
+                "kind {} does not match its {} payload",
+                a.kind.name(),
+                if a.kind.is_mesh() { "texture" } else { "mesh" }
+            )),
+            Payload::Texture(t) => {
                 if let Err(m) = t.check(limits) {
                     bad(m);
                 }
-                let shape_ok = match kind {
-                    AssetKind::Heightfield | AssetKind::AmbientOcclusion => {
-                        t.dimension == TextureDimension::D2 && t.format.channels() == 1
-                    }
-                    AssetKind::Horizon => t.dimension == TextureDimension::D3 && t.format.channels() == 2,
-                    AssetKind::Relief => t.dimension == TextureDimension::D2Array && t.format.channels() == 1,
-                    AssetKind::MaxMip => {
-                        t.dimension == TextureDimension::D2
-                            && t.format.channels() == 1
-                            && t.width.is_power_of_two()
-                            && t.height.is_power_of_two()
-                            && t.levels == crate::relief::MaxMip::level_count_for(t.width, t.height)
-                    }
-                    _ => true,
-                };
-                if !shape_ok {
-                    bad(format!(
-                        "a {} must be {}",
-                        kind.name(),
-                        match kind {
-                            AssetKind::Horizon => "a two-channel D3 texture",
-                            AssetKind::Relief => "a one-channel D2Array texture",
-                            AssetKind::MaxMip =>
-                                "a one-channel D2 texture with power-of-two sides and a full max-mip chain",
-                            _ => "a one-channel D2 texture",
-                        }
-                    ));
-                }
-                if let (AssetKind::Horizon, Settings::Horizon(h)) = (kind, &a.settings) {
-                    if h.directions != t.depth {
-                        bad(format!("{} directions but the texture is {} deep", h.directions, t.depth));
-                    }
-                }
-                if let (AssetKind::Relief, Settings::Relief(r)) = (kind, &a.settings) {
-                    let layers = r.theta as u64 * r.phi as u64;
-                    if layers != t.layers as u64 || r.directions.len() as u64 != layers {
-                        bad(format!(
-                            "{}×{} directions and a table of {} but the texture has {} layers",
-                            r.theta,
-                            r.phi,
-                            r.directions.len(),
-                            t.layers
-                        ));
-                    }
-                    if !(r.depth_scale.is_finite() && r.depth_scale > 0.0) {
-                        bad(format!("depth_scale {} must be finite and positive", r.depth_scale));
-                    }
-                }
+                texture_problems(a.kind, t, &a.settings).into_iter().for_each(&mut bad);
             }
-            (Payload::Mesh(_), AssetKind::Mesh) => {}
-            (Payload::Mesh(m), AssetKind::Curvature) => {
-                for name in ["position", "uv", "normal", "curvature", "principal1", "principal2"] {
+            Payload::Mesh(m) => {
+                for name in a.kind.required_streams() {
                     if m.attribute(name).is_none() {
-                        bad(format!("a curvature mesh needs a `{name}` stream"));
+                        bad(format!("a {} mesh needs a `{name}` stream", a.kind.name()));
                     }
                 }
-            }
-            (Payload::Mesh(m), AssetKind::Strands) => {
-                for name in ["position", "side", "tangent", "param", "width", "opacity", "color"] {
-                    if m.attribute(name).is_none() {
-                        bad(format!("a strands mesh needs a `{name}` stream"));
-                    }
-                }
-                if m.indices.is_none() {
+                if a.kind == AssetKind::Strands && m.indices.is_none() {
                     bad("a strands mesh needs an index stream".into());
                 }
             }
-            (Payload::Mesh(_), kind) => bad(format!("kind {} does not match its mesh payload", kind.name())),
         }
-        let settings_ok = matches!(
-            (&a.settings, a.kind),
-            (Settings::Heightfield(_), AssetKind::Heightfield)
-                | (Settings::Horizon(_), AssetKind::Horizon)
-                | (Settings::AmbientOcclusion(_), AssetKind::AmbientOcclusion)
-                | (Settings::Curvature(_), AssetKind::Curvature)
-                | (Settings::Relief(_), AssetKind::Relief)
-                | (Settings::MaxMip(_), AssetKind::MaxMip)
-                | (Settings::Strands(_), AssetKind::Strands)
-                | (Settings::Generic, AssetKind::Texture | AssetKind::Mesh)
-        );
-        if !settings_ok {
+        if a.settings.kind(&a.payload) != a.kind {
             bad(format!("settings do not match kind {}", a.kind.name()));
         }
         let texel = match &a.settings {
@@ -311,6 +246,55 @@ pub(crate) fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(St
                 bad("height_scale and height_offset must be finite".into());
             }
         }
+    }
+    problems
+}
+
+/// What is wrong with a texture payload of `kind` described by `settings`: its shape, and the
+/// sizes the settings imply.
+fn texture_problems(kind: AssetKind, t: &TextureDesc, settings: &Settings) -> Vec<String> {
+    let mut problems = Vec::new();
+    let one_channel_2d = t.dimension == TextureDimension::D2 && t.format.channels() == 1;
+    let (shape_ok, shape) = match kind {
+        AssetKind::Heightfield | AssetKind::AmbientOcclusion => (one_channel_2d, "a one-channel D2 texture"),
+        AssetKind::Horizon => {
+            (t.dimension == TextureDimension::D3 && t.format.channels() == 2, "a two-channel D3 texture")
+        }
+        AssetKind::Relief => {
+            (t.dimension == TextureDimension::D2Array && t.format.channels() == 1, "a one-channel D2Array texture")
+        }
+        AssetKind::MaxMip => (
+            one_channel_2d
+                && t.width.is_power_of_two()
+                && t.height.is_power_of_two()
+                && t.levels == crate::relief::MaxMip::level_count_for(t.width, t.height),
+            "a one-channel D2 texture with power-of-two sides and a full max-mip chain",
+        ),
+        _ => (true, ""),
+    };
+    if !shape_ok {
+        problems.push(format!("a {} must be {shape}", kind.name()));
+    }
+    match settings {
+        Settings::Horizon(h) if h.directions != t.depth => {
+            problems.push(format!("{} directions but the texture is {} deep", h.directions, t.depth))
+        }
+        Settings::Relief(r) => {
+            let layers = r.theta as u64 * r.phi as u64;
+            if layers != t.layers as u64 || r.directions.len() as u64 != layers {
+                problems.push(format!(
+                    "{}×{} directions and a table of {} but the texture has {} layers",
+                    r.theta,
+                    r.phi,
+                    r.directions.len(),
+                    t.layers
+                ));
+            }
+            if !(r.depth_scale.is_finite() && r.depth_scale > 0.0) {
+                problems.push(format!("depth_scale {} must be finite and positive", r.depth_scale));
+            }
+        }
+        _ => {}
     }
     problems
 }

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use crate::manifest::FormatVersion;
+use crate::version::FormatVersion;
 
 /// Everything that can go wrong reading, writing or checking a bundle.
 ///

@@ -36,19 +36,21 @@ mod names;
 pub mod relief;
 pub mod texture;
 pub mod validate;
+mod version;
 mod writer;
 
 pub use bundle::Bundle;
 pub use error::BundleError;
 pub use limits::Limits;
 pub use manifest::{
-    AmbientOcclusionSettings, Asset, AssetKind, CurvatureSettings, EdgeMode, FormatVersion, HeightfieldSettings,
-    HorizonSettings, MANIFEST_FILE, Manifest, MaxMipSettings, Payload, ReliefSettings, Settings, StrandsSettings,
+    AmbientOcclusionSettings, Asset, AssetKind, CurvatureSettings, EdgeMode, HeightfieldSettings, HorizonSettings,
+    MANIFEST_FILE, Manifest, MaxMipSettings, Payload, ReliefSettings, Settings, StrandsSettings,
 };
 pub use mesh::{Accessor, ComponentType, MeshData, MeshDesc};
-pub use names::{is_valid_asset_id, payload_file_name};
+pub use names::{check_asset_id, is_valid_asset_id, payload_file_name};
 pub use texture::{Supercompression, TextureData, TextureDesc, TextureDimension, TextureFormat};
 pub use validate::{Problem, Report, validate};
+pub use version::FormatVersion;
 pub use writer::{BundleWriter, CommitSummary, WriteMode};
 
 /// The generator string written into manifests by this version of hikage.

@@ -4,7 +4,6 @@
 //! give a byte-identical file. A minor version bump only adds optional fields (older readers
 //! ignore them); a major bump changes meaning, and readers refuse a major they do not know.
 
-use std::fmt;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -12,30 +11,10 @@ use serde::{Deserialize, Serialize};
 use crate::error::BundleError;
 use crate::mesh::MeshDesc;
 use crate::texture::TextureDesc;
+use crate::version::FormatVersion;
 
 /// File name of the manifest inside a bundle directory.
 pub const MANIFEST_FILE: &str = "bundle.ron";
-
-/// Bundle format version. Readers accept any minor of their major.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
-pub struct FormatVersion {
-    /// Incompatible changes.
-    pub major: u32,
-    /// Additions an older reader of the same major can ignore.
-    pub minor: u32,
-}
-
-impl FormatVersion {
-    /// The version this crate writes and reads. 1.1 added the `Horizon`, `AmbientOcclusion`
-    /// and `Curvature` kinds; 1.2 the `Relief` and `MaxMip` kinds.
-    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 2 };
-}
-
-impl fmt::Display for FormatVersion {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}.{}", self.major, self.minor)
-    }
-}
 
 /// The whole manifest.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -87,6 +66,20 @@ pub enum AssetKind {
 }
 
 impl AssetKind {
+    /// True when assets of this kind carry a mesh payload; the others carry a texture.
+    pub fn is_mesh(self) -> bool {
+        matches!(self, AssetKind::Curvature | AssetKind::Strands | AssetKind::Mesh)
+    }
+
+    /// The vertex streams a mesh of this kind must have (see each kind's description).
+    pub fn required_streams(self) -> &'static [&'static str] {
+        match self {
+            AssetKind::Curvature => &["position", "uv", "normal", "curvature", "principal1", "principal2"],
+            AssetKind::Strands => &["position", "side", "tangent", "param", "width", "opacity", "color"],
+            _ => &[],
+        }
+    }
+
     /// Lower-case name used by the CLI and JSON output.
     pub fn name(self) -> &'static str {
         match self {
@@ -173,6 +166,26 @@ pub enum Settings {
     Strands(StrandsSettings),
 }
 
+impl Settings {
+    /// The kind of asset these settings describe: each kind has its own settings, and generic
+    /// settings take the kind from the payload (a texture or a mesh).
+    pub fn kind(&self, payload: &Payload) -> AssetKind {
+        match self {
+            Settings::Generic => match payload {
+                Payload::Texture(_) => AssetKind::Texture,
+                Payload::Mesh(_) => AssetKind::Mesh,
+            },
+            Settings::Heightfield(_) => AssetKind::Heightfield,
+            Settings::Horizon(_) => AssetKind::Horizon,
+            Settings::AmbientOcclusion(_) => AssetKind::AmbientOcclusion,
+            Settings::Curvature(_) => AssetKind::Curvature,
+            Settings::Relief(_) => AssetKind::Relief,
+            Settings::MaxMip(_) => AssetKind::MaxMip,
+            Settings::Strands(_) => AssetKind::Strands,
+        }
+    }
+}
+
 /// How hair strips were baked (seed 004). Widths and opacities are those of a strand with the
 /// source's default thickness and transparency; each strand's own values scale them.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -239,6 +252,7 @@ pub struct CurvatureSettings {
 
 /// What rays do at the edge of a heightfield.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum EdgeMode {
     /// Rays continue on the torus (tileable bump maps).
     #[default]

@@ -13,6 +13,16 @@ pub fn is_valid_asset_id(id: &str) -> bool {
         && id.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-' || b == b'.')
 }
 
+/// [`is_valid_asset_id`] as a result whose error says what an id may be; the one message every
+/// reader and writer of ids gives.
+pub fn check_asset_id(id: &str) -> Result<(), String> {
+    if is_valid_asset_id(id) {
+        Ok(())
+    } else {
+        Err(format!("id {id:?} is not valid: expected 1–128 of A–Z a–z 0–9 _ - . not starting with ."))
+    }
+}
+
 /// True when `file` is a plain file name inside the bundle directory: no separators, no `..`,
 /// not absolute, not hidden, only the characters of an asset id.
 pub fn is_safe_file_name(file: &str) -> bool {

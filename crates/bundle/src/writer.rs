@@ -13,9 +13,9 @@ use std::path::{Path, PathBuf};
 
 use crate::bundle::Bundle;
 use crate::error::BundleError;
-use crate::manifest::{Asset, AssetKind, MANIFEST_FILE, Manifest, Payload, Settings};
+use crate::manifest::{Asset, MANIFEST_FILE, Manifest, Payload, Settings};
 use crate::mesh::MeshData;
-use crate::names::{is_valid_asset_id, looks_like_payload, payload_file_name};
+use crate::names::{check_asset_id, looks_like_payload, payload_file_name};
 use crate::texture::TextureData;
 
 const TEMP_PREFIX: &str = ".hikage-tmp-";
@@ -119,51 +119,43 @@ impl BundleWriter {
     pub fn put_texture(
         &mut self,
         id: &str,
-        kind: AssetKind,
         settings: Settings,
         input_hash: &str,
         texture: &TextureData,
     ) -> Result<Asset, BundleError> {
         let bytes = crate::ktx2_file::encode(texture, crate::GENERATOR)?;
-        self.put_payload(id, kind, settings, input_hash, Payload::Texture(texture.desc.clone()), &bytes, "ktx2")
+        self.put_payload(id, settings, input_hash, Payload::Texture(texture.desc.clone()), &bytes, "ktx2")
     }
 
     /// Writes a mesh payload and adds or replaces asset `id`.
     pub fn put_mesh(
         &mut self,
         id: &str,
-        kind: AssetKind,
         settings: Settings,
         input_hash: &str,
         mesh: &MeshData,
     ) -> Result<Asset, BundleError> {
         mesh.desc.check(mesh.bytes.len() as u64).map_err(BundleError::InvalidData)?;
-        self.put_payload(id, kind, settings, input_hash, Payload::Mesh(mesh.desc.clone()), &mesh.bytes, "bin")
+        self.put_payload(id, settings, input_hash, Payload::Mesh(mesh.desc.clone()), &mesh.bytes, "bin")
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn put_payload(
         &mut self,
         id: &str,
-        kind: AssetKind,
         settings: Settings,
         input_hash: &str,
         payload: Payload,
         bytes: &[u8],
         ext: &str,
     ) -> Result<Asset, BundleError> {
-        if !is_valid_asset_id(id) {
-            return Err(BundleError::InvalidData(format!(
-                "asset id {id:?} is not valid: expected 1–128 of A–Z a–z 0–9 _ - . not starting with ."
-            )));
-        }
+        check_asset_id(id).map_err(|m| BundleError::InvalidData(format!("asset {m}")))?;
         let hash = blake3::hash(bytes).to_hex().to_string();
         let file = payload_file_name(id, &hash, ext);
         write_atomically(&self.dir, &file, bytes)?;
         self.written.insert(file.clone());
         let asset = Asset {
             id: id.to_string(),
-            kind,
+            kind: settings.kind(&payload),
             file,
             byte_length: bytes.len() as u64,
             blake3: hash,

@@ -1,10 +1,14 @@
 //! Canonical orientation: every azimuth is handled as a ray stepping one column to the right
 //! per step and `m ∈ [-1, 1]` rows, on a transposed and/or mirrored copy of the heightfield.
 
+/// Height used outside a clamped map: far below anything real, yet finite so that
+/// `a + 0 · (OUTSIDE - a)` stays `a`.
+pub(crate) const OUTSIDE: f32 = -1.0e30;
+
 /// A heightfield in world height units (`height_scale × sample`; the offset cancels in every
 /// slope), in canonical orientation, stored with `pad` extra rows above and below and `pad`
 /// extra columns on the right so the near-field stencil never tests an edge. The padding holds
-/// the torus continuation (wrap) or [`OUTSIDE`](super::near::OUTSIDE) (clamp). It is the baker's
+/// the torus continuation (wrap) or [`OUTSIDE`] (clamp). It is the baker's
 /// only copy of the heights.
 #[derive(Clone, Debug)]
 pub(crate) struct Grid {
@@ -109,7 +113,7 @@ impl Orientation {
         let (w, h, gsx, gsy) = if self.transpose { (height, width, sy, sx) } else { (width, height, sx, sy) };
         let stride = w + pad;
         let mut data = returnable(stride * (h + 2 * pad));
-        data.resize(stride * (h + 2 * pad), super::near::OUTSIDE);
+        data.resize(stride * (h + 2 * pad), OUTSIDE);
         for (r, out) in data.chunks_exact_mut(stride).enumerate() {
             let row = r as isize - pad as isize;
             if !(0..h as isize).contains(&row) && !wrap {

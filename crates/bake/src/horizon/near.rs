@@ -11,10 +11,6 @@
 
 use super::grid::Grid;
 
-/// Height used outside a clamped map: far below anything real, yet finite so that
-/// `a + 0 · (OUTSIDE - a)` stays `a`.
-pub(crate) const OUTSIDE: f32 = -1.0e30;
-
 /// One crossing of the stencil: `lerp(A, B, f)` with `A` at (row + `ra`, col + `ca`) and `B` at
 /// (row + `rb`, col + `cb`), at world distance `t`.
 #[derive(Clone, Copy, Debug)]

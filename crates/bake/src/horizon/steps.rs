@@ -6,8 +6,8 @@
 //! row crossing `dv` is at column displacement `dv / |m|`. The tables hold those offsets so the
 //! sweep and the exact traces do no floor or division per sample.
 
-use super::grid::Grid;
-use super::near::{OUTSIDE, split};
+use super::grid::{Grid, OUTSIDE};
+use super::near::split;
 
 /// Column and row crossings a window may hold to be sampled as fixed slots ([`Steps::window`]):
 /// the common window around one candidate column is three columns with one or two row

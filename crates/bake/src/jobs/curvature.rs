@@ -1,11 +1,11 @@
 //! The `Curvature` job: an OBJ or glTF mesh with UVs → a `curvature` mesh asset.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use hikage_bundle::{AssetKind, CurvatureSettings, MeshData, Settings};
+use hikage_bundle::{CurvatureSettings, MeshData, Settings};
 use serde::{Deserialize, Serialize};
 
-use super::{BakedAsset, BakedPayload, JobContext};
+use super::{BakedAsset, BakedPayload, Baker, JobContext};
 use crate::curvature;
 use crate::error::BakeError;
 use crate::mesh;
@@ -25,10 +25,6 @@ pub struct CurvatureJob {
 }
 
 impl CurvatureJob {
-    pub(crate) fn canonical_settings(&self) -> String {
-        "rings=2".to_string()
-    }
-
     /// Loads and checks the mesh, and computes its curvature.
     pub(crate) fn compute(
         &self,
@@ -39,8 +35,45 @@ impl CurvatureJob {
         let c = curvature::compute(&mesh).map_err(|e| BakeError::input(&path, None, e.to_string()))?;
         Ok((mesh, c))
     }
+}
 
-    pub(crate) fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
+impl Baker for CurvatureJob {
+    fn id(&self) -> &str {
+        &self.id
+    }
+
+    fn kind(&self) -> &'static str {
+        "curvature"
+    }
+
+    fn algorithm_version(&self) -> u32 {
+        ALGORITHM_VERSION
+    }
+
+    /// The mesh, and for a `.gltf` the buffer files beside it.
+    fn inputs(&self, base_dir: &Path) -> Vec<PathBuf> {
+        let input = base_dir.join(&self.input);
+        let buffers = mesh::gltf::external_files(&input);
+        std::iter::once(input).chain(buffers).collect()
+    }
+
+    fn outputs(&self) -> Vec<String> {
+        vec![self.id.clone()]
+    }
+
+    fn canonical_settings(&self) -> String {
+        "rings=2".to_string()
+    }
+
+    fn check(&self) -> Result<(), String> {
+        Ok(())
+    }
+
+    fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
+        self.compute(ctx).map(|_| ())
+    }
+
+    fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
         (ctx.progress)(0, 1);
         let (mesh, c) = self.compute(ctx)?;
         let n = mesh.vertex_uv.len();
@@ -58,7 +91,6 @@ impl CurvatureJob {
         (ctx.progress)(1, 1);
         Ok(vec![BakedAsset {
             id: self.id.clone(),
-            kind: AssetKind::Curvature,
             settings: Settings::Curvature(CurvatureSettings { positions: mesh.positions.len() as u32, rings: 2 }),
             payload: BakedPayload::Mesh(data),
         }])

@@ -1,11 +1,11 @@
 //! The `Heightfield` job: import an image as a `heightfield` asset.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use hikage_bundle::{AssetKind, HeightfieldSettings, Settings, TextureFormat};
+use hikage_bundle::{HeightfieldSettings, Settings, TextureFormat};
 use serde::{Deserialize, Serialize};
 
-use super::{BakedAsset, BakedPayload, JobContext};
+use super::{BakedAsset, BakedPayload, Baker, JobContext};
 use crate::error::BakeError;
 use crate::heightfield::{Heightfield, LoadOptions, load_samples};
 
@@ -14,11 +14,14 @@ pub const ALGORITHM_VERSION: u32 = 1;
 
 /// Storage format of a heightfield texture.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum HeightFormat {
     /// 32-bit float samples (exact).
     #[default]
+    #[cfg_attr(feature = "clap", value(name = "r32f"))]
     R32Float,
     /// Half-float samples (11-bit mantissa; enough for normalised 8-bit sources).
+    #[cfg_attr(feature = "clap", value(name = "r16f"))]
     R16Float,
 }
 
@@ -57,6 +60,17 @@ pub struct HeightfieldJob {
     pub format: HeightFormat,
 }
 
+/// Parses a texel size written `SX` or `SX,SY` (the command line's `--texel-size`).
+#[cfg(feature = "clap")]
+pub fn parse_texel_size(s: &str) -> Result<(f32, f32), String> {
+    let num = |p: &str| p.trim().parse::<f32>().map_err(|e| format!("{p:?}: {e}"));
+    match s.split(',').collect::<Vec<_>>().as_slice() {
+        [x] => num(x).map(|x| (x, x)),
+        [x, y] => Ok((num(x)?, num(y)?)),
+        _ => Err("expected SX or SX,SY".into()),
+    }
+}
+
 pub(crate) fn unit_texel() -> (f32, f32) {
     (1.0, 1.0)
 }
@@ -66,15 +80,17 @@ pub(crate) fn one() -> f32 {
 }
 
 impl HeightfieldJob {
-    pub(crate) fn canonical_settings(&self) -> String {
-        format!(
-            "channel={:?};texel_size=({:?},{:?});height_scale={:?};height_offset={:?};format={:?}",
-            self.channel, self.texel_size.0, self.texel_size.1, self.height_scale, self.height_offset, self.format
-        )
-    }
-
-    pub(crate) fn check(&self) -> Result<(), String> {
-        check_world_units(self.texel_size, self.height_scale, self.height_offset)
+    /// A job with every setting at its default.
+    pub fn new(id: &str, input: PathBuf) -> HeightfieldJob {
+        HeightfieldJob {
+            id: id.to_string(),
+            input,
+            channel: None,
+            texel_size: unit_texel(),
+            height_scale: 1.0,
+            height_offset: 0.0,
+            format: HeightFormat::R32Float,
+        }
     }
 
     /// Loads the input with the job's world units attached.
@@ -94,17 +110,58 @@ impl HeightfieldJob {
         })
     }
 
-    pub(crate) fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
+    /// The asset of a loaded heightfield, stored in `format`.
+    pub(crate) fn asset(&self, hf: &Heightfield) -> Result<BakedAsset, BakeError> {
+        Ok(BakedAsset {
+            id: self.id.clone(),
+            settings: Settings::Heightfield(settings_of(hf)),
+            payload: BakedPayload::Texture(hf.to_texture(self.format.texture_format())?),
+        })
+    }
+}
+
+impl Baker for HeightfieldJob {
+    fn id(&self) -> &str {
+        &self.id
+    }
+
+    fn kind(&self) -> &'static str {
+        "heightfield"
+    }
+
+    fn algorithm_version(&self) -> u32 {
+        ALGORITHM_VERSION
+    }
+
+    fn inputs(&self, base_dir: &Path) -> Vec<PathBuf> {
+        vec![base_dir.join(&self.input)]
+    }
+
+    fn outputs(&self) -> Vec<String> {
+        vec![self.id.clone()]
+    }
+
+    fn canonical_settings(&self) -> String {
+        format!(
+            "channel={:?};texel_size=({:?},{:?});height_scale={:?};height_offset={:?};format={:?}",
+            self.channel, self.texel_size.0, self.texel_size.1, self.height_scale, self.height_offset, self.format
+        )
+    }
+
+    fn check(&self) -> Result<(), String> {
+        check_world_units(self.texel_size, self.height_scale, self.height_offset)
+    }
+
+    fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
+        self.load(ctx).map(|_| ())
+    }
+
+    fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
         (ctx.progress)(0, 1);
         let hf = self.load(ctx)?;
-        let texture = hf.to_texture(self.format.texture_format())?;
+        let asset = self.asset(&hf)?;
         (ctx.progress)(1, 1);
-        Ok(vec![BakedAsset {
-            id: self.id.clone(),
-            kind: AssetKind::Heightfield,
-            settings: Settings::Heightfield(settings_of(&hf)),
-            payload: BakedPayload::Texture(texture),
-        }])
+        Ok(vec![asset])
     }
 }
 
@@ -119,7 +176,7 @@ pub fn settings_of(hf: &Heightfield) -> HeightfieldSettings {
     }
 }
 
-/// Checks texel size, height scale and offset (DESIGN.md "World units").
+/// Checks texel size, height scale and offset (see [`crate::heightfield`] on world units).
 pub fn check_world_units(texel_size: (f32, f32), height_scale: f32, height_offset: f32) -> Result<(), String> {
     let (sx, sy) = texel_size;
     if !(sx.is_finite() && sy.is_finite() && sx > 0.0 && sy > 0.0) {

@@ -1,57 +1,75 @@
 //! The `Horizon` job: a heightfield image → the heightfield asset, the horizon texture and,
 //! optionally, an ambient-occlusion map derived from it.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use hikage_bundle::{AmbientOcclusionSettings, AssetKind, EdgeMode, HorizonSettings as HorizonInfo, Settings};
+use hikage_bundle::{AmbientOcclusionSettings, EdgeMode, HorizonSettings, Settings};
 use serde::{Deserialize, Serialize};
 
-use super::heightfield::{HeightFormat, HeightfieldJob, check_world_units, one, settings_of, unit_texel};
-use super::{BakedAsset, BakedPayload, JobContext};
+use super::heightfield::{HeightFormat, HeightfieldJob, check_world_units, one, unit_texel};
+use super::{BakedAsset, BakedPayload, Baker, JobContext};
 use crate::error::BakeError;
-use crate::horizon::{self, DEFAULT_NEAR_FIELD, HorizonFormat, HorizonSettings, OPEN_SKY_SLOPE};
+use crate::horizon::{self, DEFAULT_NEAR_FIELD, HorizonFormat, HorizonParams, OPEN_SKY_SLOPE};
 
 /// Settings of a horizon bake. Asset ids: `<id>.height`, `<id>.horizon`, and `<id>.ao` with
 /// `ao: true`.
+///
+/// With the `clap` feature it is also the `hikage horizon` command line (the id comes from
+/// `--id` or the input's file stem).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
 #[serde(deny_unknown_fields)]
 pub struct HorizonJob {
     /// Prefix of the asset ids.
+    #[cfg_attr(feature = "clap", arg(skip))]
     pub id: String,
-    /// PNG (8/16-bit) or OpenEXR heightfield.
+    /// Heightfield image: PNG (8/16-bit) or OpenEXR.
     pub input: PathBuf,
-    /// Channel to take (see [`crate::heightfield`]).
+    /// Channel of the input to take: R, G, B, A, Y or an EXR channel name (default: a grayscale
+    /// PNG's luma; an EXR's Y, else R, else its only channel).
     #[serde(default)]
+    #[cfg_attr(feature = "clap", arg(long))]
     pub channel: Option<String>,
-    /// World units per texel along `u` and `v`.
+    /// World units per texel along u (columns) and v (rows): SX, or SX,SY.
     #[serde(default = "unit_texel")]
+    #[cfg_attr(feature = "clap", arg(long, value_name = "SX[,SY]", value_parser = super::heightfield::parse_texel_size, default_value = "1"))]
     pub texel_size: (f32, f32),
-    /// World height = `height_offset + height_scale × sample`.
+    /// World height = height_offset + height_scale × sample (integer images normalised to [0, 1]
+    /// first).
     #[serde(default = "one")]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 1.0, allow_negative_numbers = true))]
     pub height_scale: f32,
-    /// See `height_scale`.
+    /// Added to every world height; see height_scale.
     #[serde(default)]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 0.0, allow_negative_numbers = true))]
     pub height_offset: f32,
     /// Storage of the heightfield asset.
     #[serde(default)]
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = HeightFormat::R32Float))]
     pub height_format: HeightFormat,
-    /// Azimuths, 1–256.
+    /// Azimuths D, 1–256; direction k has φ = 2πk/D.
     #[serde(default = "default_directions")]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = default_directions()))]
     pub directions: u32,
-    /// Edge behaviour.
+    /// Wrap: rays continue on the torus (tileable maps); clamp: rays stop at the edge.
     #[serde(default)]
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = EdgeMode::Wrap))]
     pub edge: EdgeMode,
-    /// Largest horizon distance, world units.
+    /// Largest horizon distance in world units (none: to the edge, or one map length on a torus).
     #[serde(default)]
+    #[cfg_attr(feature = "clap", arg(long, allow_negative_numbers = true))]
     pub max_distance: Option<f32>,
-    /// Texels per ray traced exactly (0–64).
+    /// Texels per ray traced exactly before the line sweep takes over, 0–64.
     #[serde(default = "default_near_field")]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = DEFAULT_NEAR_FIELD))]
     pub near_field: u32,
-    /// Storage of the horizon texture.
+    /// Storage of the horizon texture: rg16f, rg32f, or rg8 (the paper's memory; β step 0.71°).
     #[serde(default)]
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = HorizonFormat::Rg16Float))]
     pub format: HorizonFormat,
-    /// Also write the ambient-occlusion map.
+    /// Also write the ambient-occlusion map derived from the horizons.
     #[serde(default)]
+    #[cfg_attr(feature = "clap", arg(long))]
     pub ao: bool,
 }
 
@@ -97,8 +115,9 @@ impl HorizonJob {
         }
     }
 
-    fn settings(&self) -> HorizonSettings {
-        HorizonSettings {
+    /// The baker's parameters.
+    pub fn params(&self) -> HorizonParams {
+        HorizonParams {
             directions: self.directions,
             edge: self.edge,
             max_distance: self.max_distance,
@@ -119,8 +138,26 @@ impl HorizonJob {
     pub fn ao_id(&self) -> String {
         format!("{}.ao", self.id)
     }
+}
 
-    pub(crate) fn outputs(&self) -> Vec<String> {
+impl Baker for HorizonJob {
+    fn id(&self) -> &str {
+        &self.id
+    }
+
+    fn kind(&self) -> &'static str {
+        "horizon"
+    }
+
+    fn algorithm_version(&self) -> u32 {
+        ALGORITHM_VERSION
+    }
+
+    fn inputs(&self, base_dir: &Path) -> Vec<PathBuf> {
+        vec![base_dir.join(&self.input)]
+    }
+
+    fn outputs(&self) -> Vec<String> {
         let mut out = vec![self.height_id(), self.horizon_id()];
         if self.ao {
             out.push(self.ao_id());
@@ -128,7 +165,7 @@ impl HorizonJob {
         out
     }
 
-    pub(crate) fn canonical_settings(&self) -> String {
+    fn canonical_settings(&self) -> String {
         format!(
             "{};directions={};edge={:?};max_distance={:?};near_field={};format={:?};ao={}",
             self.heightfield_job().canonical_settings(),
@@ -141,24 +178,23 @@ impl HorizonJob {
         )
     }
 
-    pub(crate) fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), String> {
         check_world_units(self.texel_size, self.height_scale, self.height_offset)?;
-        self.settings().check()
+        self.params().check()
     }
 
-    pub(crate) fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
+    fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
         self.heightfield_job().load(ctx).map(|_| ())
     }
 
-    pub(crate) fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
+    fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
         let hf = self.heightfield_job().load(ctx)?;
-        let settings = self.settings();
-        let baked = horizon::bake(&hf, &settings, ctx.progress).map_err(|message| BakeError::Setting {
+        let baked = horizon::bake(&hf, &self.params(), ctx.progress).map_err(|message| BakeError::Setting {
             path: ctx.base_dir.join("pipeline.ron"),
             job: self.id.clone(),
             message,
         })?;
-        let info = HorizonInfo {
+        let settings = HorizonSettings {
             heightfield: self.height_id(),
             directions: self.directions,
             edge: self.edge,
@@ -169,16 +205,10 @@ impl HorizonJob {
             open_sky_slope: OPEN_SKY_SLOPE,
             distance_scale: baked.distance_scale,
         };
-        let mut assets = vec![BakedAsset {
-            id: self.height_id(),
-            kind: AssetKind::Heightfield,
-            settings: Settings::Heightfield(settings_of(&hf)),
-            payload: BakedPayload::Texture(hf.to_texture(self.height_format.texture_format())?),
-        }];
+        let mut assets = vec![self.heightfield_job().asset(&hf)?];
         if self.ao {
             assets.push(BakedAsset {
                 id: self.ao_id(),
-                kind: AssetKind::AmbientOcclusion,
                 settings: Settings::AmbientOcclusion(AmbientOcclusionSettings {
                     horizon: self.horizon_id(),
                     directions: self.directions,
@@ -188,8 +218,7 @@ impl HorizonJob {
         }
         assets.push(BakedAsset {
             id: self.horizon_id(),
-            kind: AssetKind::Horizon,
-            settings: Settings::Horizon(info),
+            settings: Settings::Horizon(settings),
             payload: BakedPayload::Texture(baked.texture),
         });
         Ok(assets)

@@ -1,4 +1,14 @@
-//! The bakers a pipeline job can name, behind one interface the runner uses.
+//! The job kinds a pipeline can name, and the one interface the runner bakes them through.
+//!
+//! Every kind is a settings struct (the fields `pipeline.ron` writes inside `Horizon(…)`) that
+//! implements [`Baker`]. [`Job`] is only the registry `pipeline.ron` needs: serde picks the
+//! variant by name and [`Job::baker`] hands out the trait object. The runner, the hashing,
+//! `validate PIPELINE` and the CLI never match on the kind, and the bundle derives an asset's
+//! kind from its settings.
+//!
+//! Adding a kind therefore touches one new module here (its struct and `impl Baker`) and the
+//! registry: one variant of [`Job`] and one arm of [`Job::baker`]. If its assets need a new
+//! kind of settings in the manifest, that is a variant of [`hikage_bundle::Settings`] too.
 
 pub mod curvature;
 pub mod heightfield;
@@ -8,16 +18,99 @@ pub mod strands;
 
 use std::path::{Path, PathBuf};
 
-use hikage_bundle::{AssetKind, MeshData, Settings, TextureData};
+use hikage_bundle::{MeshData, Settings, TextureData};
+use serde::{Deserialize, Serialize};
 
 use crate::error::BakeError;
-use crate::pipeline::{InputLimits, Job};
+use crate::limits::InputLimits;
+
+pub use curvature::CurvatureJob;
+pub use heightfield::{HeightFormat, HeightfieldJob};
+pub use horizon::HorizonJob;
+pub use relief::ReliefJob;
+pub use strands::StrandsJob;
+
+/// One job of a pipeline. The variant names the baker; [`Job::baker`] is the only place that
+/// lists them.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Job {
+    /// Import a heightfield image as a `heightfield` asset.
+    Heightfield(HeightfieldJob),
+    /// Bake horizon and distance maps (and optionally ambient occlusion) from a heightfield.
+    Horizon(HorizonJob),
+    /// Per-vertex principal curvatures of an OBJ or glTF mesh with UVs.
+    Curvature(CurvatureJob),
+    /// Bake relief-mapping depth maps and a max-mip pyramid from a heightfield.
+    Relief(ReliefJob),
+    /// Bake hair strip meshes (shading and opacity sets) from `.hair` or OBJ polylines.
+    Strands(StrandsJob),
+}
+
+impl Job {
+    /// The job's baker.
+    pub fn baker(&self) -> &dyn Baker {
+        match self {
+            Job::Heightfield(j) => j,
+            Job::Horizon(j) => j,
+            Job::Curvature(j) => j,
+            Job::Relief(j) => j,
+            Job::Strands(j) => j,
+        }
+    }
+}
+
+/// What the runner needs from a job kind.
+///
+/// Implementations read their inputs relative to [`JobContext::base_dir`], report progress
+/// through [`JobContext::progress`], never print, and give the same bytes for the same inputs
+/// whatever the rayon pool's size.
+pub trait Baker: Sync {
+    /// The job's id: its asset's id, or the prefix of its assets' ids.
+    fn id(&self) -> &str;
+
+    /// The kind's name, as `pipeline.ron` writes the variant, in lower case. Part of the input
+    /// hash.
+    fn kind(&self) -> &'static str;
+
+    /// Version of the kind's algorithm; bumping it re-bakes every asset the kind made. Part of
+    /// the input hash.
+    fn algorithm_version(&self) -> u32;
+
+    /// Every input file, resolved against `base_dir`: their bytes are part of the input hash, and
+    /// a build script re-runs when one changes.
+    fn inputs(&self, base_dir: &Path) -> Vec<PathBuf>;
+
+    /// Ids of the assets the job makes.
+    fn outputs(&self) -> Vec<String>;
+
+    /// The settings in a canonical text form for the input hash (ids and paths left out, so
+    /// renaming a job or moving its input does not re-bake it).
+    fn canonical_settings(&self) -> String;
+
+    /// Checks the settings without reading any input; the message says what is accepted.
+    fn check(&self) -> Result<(), String>;
+
+    /// Opens and decodes every input without baking (the `validate PIPELINE` pre-check).
+    fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError>;
+
+    /// Bakes the job's assets, in the order of [`outputs`](Baker::outputs) or any other.
+    fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError>;
+}
+
+/// Checks a job's id, the ids of the assets it makes, and its settings.
+pub fn check(baker: &dyn Baker) -> Result<(), String> {
+    hikage_bundle::check_asset_id(baker.id())?;
+    for id in baker.outputs() {
+        hikage_bundle::check_asset_id(&id).map_err(|m| format!("asset {m}"))?;
+    }
+    baker.check()
+}
 
 /// What a job needs from its surroundings while it runs.
 pub struct JobContext<'a> {
     /// Directory that input paths are relative to.
     pub base_dir: &'a Path,
-    /// Input limits.
+    /// Limits applied to inputs before they are decoded.
     pub limits: &'a InputLimits,
     /// Reports progress as (done, total) units of work.
     pub progress: &'a (dyn Fn(u64, u64) + Sync),
@@ -32,135 +125,38 @@ pub enum BakedPayload {
     Mesh(MeshData),
 }
 
-/// One asset produced by a job, ready to be written.
+/// One asset produced by a job, ready to be written. Its kind follows from its settings
+/// ([`Settings::kind`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct BakedAsset {
     /// Asset id.
     pub id: String,
-    /// Asset kind.
-    pub kind: AssetKind,
     /// The settings recorded in the manifest.
     pub settings: Settings,
     /// The payload.
     pub payload: BakedPayload,
 }
 
-impl Job {
-    /// The job's id (its first asset's id).
-    pub fn id(&self) -> &str {
-        match self {
-            Job::Heightfield(j) => &j.id,
-            Job::Horizon(j) => &j.id,
-            Job::Relief(j) => &j.id,
-            Job::Strands(j) => &j.id,
-            Job::Curvature(j) => &j.id,
-        }
-    }
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-    /// The baker's name as written in the pipeline.
-    pub fn kind(&self) -> &'static str {
-        match self {
-            Job::Heightfield(_) => "heightfield",
-            Job::Horizon(_) => "horizon",
-            Job::Relief(_) => "relief",
-            Job::Strands(_) => "strands",
-            Job::Curvature(_) => "curvature",
+    /// The kind name hashed with a job is the variant name `pipeline.ron` writes, so the two
+    /// can never drift apart.
+    #[test]
+    fn each_kind_name_is_its_pipeline_variant_in_lower_case() {
+        let input = PathBuf::from("x.png");
+        let jobs = [
+            Job::Heightfield(HeightfieldJob::new("a", input.clone())),
+            Job::Horizon(HorizonJob::new("a", input.clone())),
+            Job::Curvature(CurvatureJob { id: "a".into(), input: input.clone() }),
+            Job::Relief(ReliefJob::new("a", input.clone())),
+            Job::Strands(StrandsJob::new("a", input)),
+        ];
+        for job in jobs {
+            let text = ron::to_string(&job).unwrap();
+            let variant = text.split('(').next().unwrap();
+            assert_eq!(job.baker().kind(), variant.to_lowercase(), "{text}");
         }
-    }
-
-    /// Version of the baker's algorithm; bumping it re-bakes every asset it made.
-    pub fn algorithm_version(&self) -> u32 {
-        match self {
-            Job::Heightfield(_) => heightfield::ALGORITHM_VERSION,
-            Job::Horizon(_) => horizon::ALGORITHM_VERSION,
-            Job::Relief(_) => relief::ALGORITHM_VERSION,
-            Job::Strands(_) => strands::ALGORITHM_VERSION,
-            Job::Curvature(_) => curvature::ALGORITHM_VERSION,
-        }
-    }
-
-    /// Input files, resolved against `base_dir`.
-    pub fn inputs(&self, base_dir: &Path) -> Vec<PathBuf> {
-        match self {
-            Job::Heightfield(j) => vec![base_dir.join(&j.input)],
-            Job::Horizon(j) => vec![base_dir.join(&j.input)],
-            Job::Relief(j) => vec![base_dir.join(&j.input)],
-            Job::Strands(j) => vec![base_dir.join(&j.input)],
-            Job::Curvature(j) => {
-                let input = base_dir.join(&j.input);
-                let buffers = crate::mesh::gltf::external_files(&input);
-                std::iter::once(input).chain(buffers).collect()
-            }
-        }
-    }
-
-    /// Ids of the assets the job makes.
-    pub fn outputs(&self) -> Vec<String> {
-        match self {
-            Job::Heightfield(j) => vec![j.id.clone()],
-            Job::Horizon(j) => j.outputs(),
-            Job::Relief(j) => j.outputs(),
-            Job::Strands(j) => j.outputs(),
-            Job::Curvature(j) => vec![j.id.clone()],
-        }
-    }
-
-    /// Settings in a canonical text form for the input hash (ids and paths excluded).
-    pub fn canonical_settings(&self) -> String {
-        match self {
-            Job::Heightfield(j) => j.canonical_settings(),
-            Job::Horizon(j) => j.canonical_settings(),
-            Job::Relief(j) => j.canonical_settings(),
-            Job::Strands(j) => j.canonical_settings(),
-            Job::Curvature(j) => j.canonical_settings(),
-        }
-    }
-
-    /// Checks the settings without reading any input.
-    pub fn check(&self) -> Result<(), String> {
-        if !hikage_bundle::is_valid_asset_id(self.id()) {
-            return Err(format!(
-                "id {:?} is not valid: expected 1–128 of A–Z a–z 0–9 _ - . not starting with .",
-                self.id()
-            ));
-        }
-        match self {
-            Job::Heightfield(j) => j.check(),
-            Job::Horizon(j) => j.check(),
-            Job::Relief(j) => j.check(),
-            Job::Strands(j) => j.check(),
-            Job::Curvature(_) => Ok(()),
-        }
-    }
-
-    /// Opens and decodes every input without baking (the `validate PIPELINE` pre-check).
-    pub fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
-        match self {
-            Job::Heightfield(j) => j.load(ctx).map(|_| ()),
-            Job::Horizon(j) => j.check_inputs(ctx),
-            Job::Relief(j) => j.check_inputs(ctx),
-            Job::Strands(j) => j.check_inputs(ctx),
-            Job::Curvature(j) => j.compute(ctx).map(|_| ()),
-        }
-    }
-
-    /// Bakes the job's assets.
-    pub fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
-        match self {
-            Job::Heightfield(j) => j.bake(ctx),
-            Job::Horizon(j) => j.bake(ctx),
-            Job::Relief(j) => j.bake(ctx),
-            Job::Strands(j) => j.bake(ctx),
-            Job::Curvature(j) => j.bake(ctx),
-        }
-    }
-
-    /// The input hash of this job. The input limits are part of it, so a tightened limit is
-    /// applied to inputs that were baked before (the result never depends on the cache).
-    pub fn input_hash(&self, base_dir: &Path, limits: &InputLimits) -> Result<String, BakeError> {
-        let inputs = self.inputs(base_dir);
-        let refs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
-        let settings = format!("{};max_dimension={}", self.canonical_settings(), limits.max_dimension);
-        crate::hash::input_hash(self.kind(), self.algorithm_version(), &settings, &refs)
     }
 }

@@ -1,65 +1,77 @@
 //! The `Relief` job: a heightfield image → relief depth maps and the max-mip pyramid they were
 //! traced on.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use hikage_bundle::{AssetKind, MaxMipSettings, ReliefSettings as ReliefInfo, Settings};
+use hikage_bundle::{MaxMipSettings, ReliefSettings, Settings};
 use serde::{Deserialize, Serialize};
 
-use super::heightfield::{HeightfieldJob, unit_texel};
-use super::{BakedAsset, BakedPayload, JobContext};
+use super::heightfield::HeightfieldJob;
+use super::{BakedAsset, BakedPayload, Baker, JobContext};
 use crate::error::BakeError;
-use crate::relief::{self, ReliefFormat, ReliefSettings};
+use crate::relief::{self, ReliefFormat, ReliefParams};
 
 /// Version of the relief job; part of the input hash.
 pub const ALGORITHM_VERSION: u32 = relief::ALGORITHM_VERSION;
 
 /// Settings of a relief bake. Asset ids: `<id>.relief` (depth maps) and `<id>.maxmip`.
+///
+/// With the `clap` feature it is also the `hikage relief` command line (the id comes from
+/// `--id` or the input's file stem).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
 #[serde(deny_unknown_fields)]
 pub struct ReliefJob {
     /// Prefix of the asset ids.
+    #[cfg_attr(feature = "clap", arg(skip))]
     pub id: String,
-    /// PNG (8/16-bit) or OpenEXR heightfield with samples in [0, 1], power-of-two sides.
+    /// Heightfield image (PNG 8/16-bit or OpenEXR) with samples in [0, 1] and power-of-two sides.
     pub input: PathBuf,
-    /// Channel to take (see [`crate::heightfield`]).
+    /// Channel of the input to take: R, G, B, A, Y or an EXR channel name (default: a grayscale
+    /// PNG's luma; an EXR's Y, else R, else its only channel).
     #[serde(default)]
+    #[cfg_attr(feature = "clap", arg(long))]
     pub channel: Option<String>,
-    /// Rows of zenith angle (1–128).
+    /// Rows of zenith angle θ, 1–128; θ_i = (i + ½)·90°/theta.
     #[serde(default = "default_theta")]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = default_theta()))]
     pub theta: u32,
-    /// Azimuths per row (1–128).
+    /// Azimuths φ per row, 1–128; φ_j = 360°·j/phi.
     #[serde(default = "default_phi")]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = default_phi()))]
     pub phi: u32,
-    /// Width of the stored maps (power of two ≤ map width); absent: 32, or the map width if
-    /// smaller.
+    /// Width of the stored maps: a power of two up to the map width (MIN-downscaled); none: 32,
+    /// or the map width when smaller.
     #[serde(default = "default_size")]
+    #[cfg_attr(feature = "clap", arg(long))]
     pub size: Option<u32>,
     /// Relief thickness as a share of the map width.
     #[serde(default = "default_depth_scale")]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = default_depth_scale()))]
     pub depth_scale: f32,
-    /// Storage of the depth maps.
+    /// Storage of the depth maps: r8 (the paper's memory) or r16f; both rounded down.
     #[serde(default)]
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = ReliefFormat::R8Unorm))]
     pub format: ReliefFormat,
 }
 
 fn default_theta() -> u32 {
-    ReliefSettings::default().theta
+    ReliefParams::default().theta
 }
 fn default_phi() -> u32 {
-    ReliefSettings::default().phi
+    ReliefParams::default().phi
 }
 fn default_size() -> Option<u32> {
-    ReliefSettings::default().size
+    ReliefParams::default().size
 }
 fn default_depth_scale() -> f32 {
-    ReliefSettings::default().depth_scale
+    ReliefParams::default().depth_scale
 }
 
 impl ReliefJob {
     /// A job with every setting at its default.
     pub fn new(id: &str, input: PathBuf) -> ReliefJob {
-        let d = ReliefSettings::default();
+        let d = ReliefParams::default();
         ReliefJob {
             id: id.to_string(),
             input,
@@ -72,9 +84,9 @@ impl ReliefJob {
         }
     }
 
-    /// The baker's settings.
-    pub fn settings(&self) -> ReliefSettings {
-        ReliefSettings {
+    /// The baker's parameters.
+    pub fn params(&self) -> ReliefParams {
+        ReliefParams {
             theta: self.theta,
             phi: self.phi,
             size: self.size,
@@ -84,15 +96,7 @@ impl ReliefJob {
     }
 
     fn heightfield_job(&self) -> HeightfieldJob {
-        HeightfieldJob {
-            id: self.max_mip_id(),
-            input: self.input.clone(),
-            channel: self.channel.clone(),
-            texel_size: unit_texel(),
-            height_scale: 1.0,
-            height_offset: 0.0,
-            format: Default::default(),
-        }
+        HeightfieldJob { channel: self.channel.clone(), ..HeightfieldJob::new(&self.max_mip_id(), self.input.clone()) }
     }
 
     /// Id of the depth-map asset.
@@ -104,37 +108,60 @@ impl ReliefJob {
         format!("{}.maxmip", self.id)
     }
 
-    pub(crate) fn outputs(&self) -> Vec<String> {
-        vec![self.max_mip_id(), self.relief_id()]
-    }
-
-    pub(crate) fn canonical_settings(&self) -> String {
-        format!("{:?};{:?}", self.channel, self.settings())
-    }
-
-    pub(crate) fn check(&self) -> Result<(), String> {
-        self.settings().check()
-    }
-
     /// Loads the input and checks it can carry relief maps with these settings.
     fn load(&self, ctx: &JobContext) -> Result<crate::Heightfield, BakeError> {
         let hf = self.heightfield_job().load(ctx)?;
         let path = ctx.base_dir.join(&self.input);
-        self.settings().check_for(hf.width, hf.height).map_err(|m| BakeError::input(&path, None, m))?;
+        self.params().check_for(hf.width, hf.height).map_err(|m| BakeError::input(&path, None, m))?;
         relief::stored_heights(&hf).map_err(|m| BakeError::input(&path, None, m))?;
         Ok(hf)
     }
+}
 
-    pub(crate) fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
+impl Baker for ReliefJob {
+    fn id(&self) -> &str {
+        &self.id
+    }
+
+    fn kind(&self) -> &'static str {
+        "relief"
+    }
+
+    fn algorithm_version(&self) -> u32 {
+        ALGORITHM_VERSION
+    }
+
+    fn inputs(&self, base_dir: &Path) -> Vec<PathBuf> {
+        vec![base_dir.join(&self.input)]
+    }
+
+    fn outputs(&self) -> Vec<String> {
+        vec![self.max_mip_id(), self.relief_id()]
+    }
+
+    fn canonical_settings(&self) -> String {
+        // The text the parameters' derived `Debug` gave under their first name: kept word for
+        // word so bundles baked before keep their input hashes.
+        let p = self.params();
+        format!(
+            "{:?};ReliefSettings {{ theta: {}, phi: {}, size: {:?}, depth_scale: {:?}, format: {:?} }}",
+            self.channel, p.theta, p.phi, p.size, p.depth_scale, p.format
+        )
+    }
+
+    fn check(&self) -> Result<(), String> {
+        self.params().check()
+    }
+
+    fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
         self.load(ctx).map(|_| ())
     }
 
-    pub(crate) fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
+    fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
         let hf = self.load(ctx)?;
         let path = ctx.base_dir.join(&self.input);
-        let settings = self.settings();
-        let baked = relief::bake(&hf, &settings, ctx.progress).map_err(|m| BakeError::input(&path, None, m))?;
-        let info = ReliefInfo {
+        let baked = relief::bake(&hf, &self.params(), ctx.progress).map_err(|m| BakeError::input(&path, None, m))?;
+        let settings = ReliefSettings {
             max_mip: self.max_mip_id(),
             theta: self.theta,
             phi: self.phi,
@@ -151,14 +178,12 @@ impl ReliefJob {
         Ok(vec![
             BakedAsset {
                 id: self.max_mip_id(),
-                kind: AssetKind::MaxMip,
                 settings: Settings::MaxMip(MaxMipSettings { source_channel: hf.source_channel.clone() }),
                 payload: BakedPayload::Texture(baked.max_mip),
             },
             BakedAsset {
                 id: self.relief_id(),
-                kind: AssetKind::Relief,
-                settings: Settings::Relief(info),
+                settings: Settings::Relief(settings),
                 payload: BakedPayload::Texture(baked.depth),
             },
         ])

@@ -2,14 +2,13 @@
 
 use std::path::{Path, PathBuf};
 
-use hikage_bundle::{AssetKind, Settings, StrandsSettings};
+use hikage_bundle::{Settings, StrandsSettings};
 use serde::{Deserialize, Serialize};
 
-use super::{BakedAsset, BakedPayload, JobContext};
+use super::{BakedAsset, BakedPayload, Baker, JobContext};
 use crate::error::BakeError;
-use crate::strands::cyhair::{self, HairLimits};
 use crate::strands::strips::{self, StripSets};
-use crate::strands::{Strands, auto, obj, ribbons};
+use crate::strands::{self, Strands, auto, ribbons};
 
 /// Version of the strands job; part of the input hash.
 pub const ALGORITHM_VERSION: u32 = 1;
@@ -20,34 +19,46 @@ pub const ALGORITHM_VERSION: u32 = 1;
 /// thickness and transparency; each strand's own values scale them. Absent: the shading set is
 /// the source's defaults, the opacity set the shading set times the paper's ratios (width
 /// × 1.40/0.16, opacity × 0.0165/0.366), unless `auto` chooses it.
+///
+/// With the `clap` feature it is also the `hikage strands` command line (the id comes from
+/// `--id` or the input's file stem).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
 #[serde(deny_unknown_fields)]
 pub struct StrandsJob {
     /// Prefix of the asset ids.
+    #[cfg_attr(feature = "clap", arg(skip))]
     pub id: String,
-    /// Cem Yuksel `.hair` (by its signature) or Wavefront OBJ polylines.
+    /// Cem Yuksel `.hair` file (by its signature) or Wavefront OBJ with `l` polylines.
     pub input: PathBuf,
-    /// Shading set width.
+    /// Shading set width (default: the input's default thickness).
     #[serde(default)]
+    #[cfg_attr(feature = "clap", arg(long))]
     pub shading_width: Option<f32>,
-    /// Shading set opacity.
+    /// Shading set opacity (default: 1 − the input's default transparency).
     #[serde(default)]
+    #[cfg_attr(feature = "clap", arg(long))]
     pub shading_alpha: Option<f32>,
-    /// Opacity set width.
+    /// Opacity set width (default: shading width × 1.40/0.16, the paper's ratio).
     #[serde(default)]
+    #[cfg_attr(feature = "clap", arg(long))]
     pub opacity_width: Option<f32>,
-    /// Opacity set opacity.
+    /// Opacity set opacity (default: shading opacity × 0.0165/0.366).
     #[serde(default)]
+    #[cfg_attr(feature = "clap", arg(long))]
     pub opacity_alpha: Option<f32>,
-    /// Choose the opacity set for an opacity map of this many texels a side (no holes in the
-    /// hair's light-space silhouette, the shading set's optical depth).
+    /// Choose the opacity set for an opacity map of N² texels: no holes in the hair's
+    /// light-space silhouette, the shading set's optical depth.
     #[serde(default)]
+    #[cfg_attr(feature = "clap", arg(long, value_name = "N", num_args = 0..=1, default_missing_value = "256"))]
     pub auto: Option<u32>,
-    /// Share of the width lost at the tip (0–1).
+    /// Share of the width lost at the tip, 0–1.
     #[serde(default)]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = 0.0))]
     pub taper: f32,
     /// Also bake a fixed-orientation ribbon mesh (minimum-twist frames).
     #[serde(default)]
+    #[cfg_attr(feature = "clap", arg(long))]
     pub ribbons: bool,
 }
 
@@ -77,7 +88,36 @@ impl StrandsJob {
         format!("{}.ribbons", self.id)
     }
 
-    pub(crate) fn outputs(&self) -> Vec<String> {
+    /// The sets the job asks for on this source.
+    pub fn sets(&self, s: &Strands) -> StripSets {
+        let source = StripSets::from_source(s);
+        let shading = (self.shading_width.unwrap_or(source.shading.0), self.shading_alpha.unwrap_or(source.shading.1));
+        let opacity = (
+            self.opacity_width.unwrap_or(shading.0 * strips::PAPER_WIDTH_RATIO),
+            self.opacity_alpha.unwrap_or(shading.1 * strips::PAPER_ALPHA_RATIO),
+        );
+        StripSets { shading, opacity, taper: self.taper }
+    }
+}
+
+impl Baker for StrandsJob {
+    fn id(&self) -> &str {
+        &self.id
+    }
+
+    fn kind(&self) -> &'static str {
+        "strands"
+    }
+
+    fn algorithm_version(&self) -> u32 {
+        ALGORITHM_VERSION
+    }
+
+    fn inputs(&self, base_dir: &Path) -> Vec<PathBuf> {
+        vec![base_dir.join(&self.input)]
+    }
+
+    fn outputs(&self) -> Vec<String> {
         let mut out = vec![self.strips_id()];
         if self.ribbons {
             out.push(self.ribbons_id());
@@ -85,7 +125,7 @@ impl StrandsJob {
         out
     }
 
-    pub(crate) fn canonical_settings(&self) -> String {
+    fn canonical_settings(&self) -> String {
         format!(
             "shading=({:?},{:?});opacity=({:?},{:?});auto={:?};taper={:?};ribbons={}",
             self.shading_width,
@@ -98,7 +138,7 @@ impl StrandsJob {
         )
     }
 
-    pub(crate) fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), String> {
         for (name, w) in [("shading_width", self.shading_width), ("opacity_width", self.opacity_width)] {
             if let Some(w) = w {
                 if !(w.is_finite() && w > 0.0) {
@@ -127,24 +167,13 @@ impl StrandsJob {
         Ok(())
     }
 
-    pub(crate) fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
-        load(&ctx.base_dir.join(&self.input)).map(|_| ())
+    fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
+        strands::load(&ctx.base_dir.join(&self.input)).map(|_| ())
     }
 
-    /// The sets the job asks for on this source.
-    pub fn sets(&self, s: &Strands) -> StripSets {
-        let source = StripSets::from_source(s);
-        let shading = (self.shading_width.unwrap_or(source.shading.0), self.shading_alpha.unwrap_or(source.shading.1));
-        let opacity = (
-            self.opacity_width.unwrap_or(shading.0 * strips::PAPER_WIDTH_RATIO),
-            self.opacity_alpha.unwrap_or(shading.1 * strips::PAPER_ALPHA_RATIO),
-        );
-        StripSets { shading, opacity, taper: self.taper }
-    }
-
-    pub(crate) fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
+    fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
         (ctx.progress)(0, 2);
-        let s = load(&ctx.base_dir.join(&self.input))?;
+        let s = strands::load(&ctx.base_dir.join(&self.input))?;
         let mut sets = self.sets(&s);
         if let Some(resolution) = self.auto {
             sets = auto::choose(&s, &sets, resolution).0;
@@ -163,14 +192,12 @@ impl StrandsJob {
         };
         let mut out = vec![BakedAsset {
             id: self.strips_id(),
-            kind: AssetKind::Strands,
             settings: Settings::Strands(settings.clone()),
             payload: BakedPayload::Mesh(mesh),
         }];
         if self.ribbons {
             out.push(BakedAsset {
                 id: self.ribbons_id(),
-                kind: AssetKind::Mesh,
                 settings: Settings::Generic,
                 payload: BakedPayload::Mesh(ribbons::build(&s, &sets)),
             });
@@ -178,33 +205,4 @@ impl StrandsJob {
         (ctx.progress)(2, 2);
         Ok(out)
     }
-}
-
-/// Reads strands: a `.hair` file when it starts with `HAIR`/`hair`, OBJ polylines otherwise.
-pub fn load(path: &Path) -> Result<Strands, BakeError> {
-    let limits = HairLimits::default();
-    // The largest file the limits allow: header, segments, and every per-point array.
-    let max_bytes = 128 + 2 * limits.max_strands + 32 * limits.max_points;
-    let len = std::fs::metadata(path).map_err(|e| BakeError::io(path, e))?.len();
-    if len > max_bytes {
-        return Err(BakeError::Limit {
-            path: path.into(),
-            what: "strand file size".into(),
-            value: len,
-            limit: max_bytes,
-        });
-    }
-    let bytes = std::fs::read(path).map_err(|e| BakeError::io(path, e))?;
-    if bytes.starts_with(b"HAIR") || bytes.starts_with(b"hair") {
-        return cyhair::decode(&bytes, &limits).map_err(|e| match e.over_limit {
-            Some((value, limit)) => {
-                BakeError::Limit { path: path.into(), what: format!("{} in the header", e.message), value, limit }
-            }
-            None => BakeError::input(path, Some(e.place), e.message),
-        });
-    }
-    let text = std::str::from_utf8(&bytes).map_err(|e| {
-        BakeError::input(path, Some(format!("byte {}", e.valid_up_to())), "expected a .hair signature or OBJ text")
-    })?;
-    obj::parse(text, limits.max_points).map_err(|(place, message)| BakeError::input(path, Some(place), message))
 }

@@ -7,6 +7,11 @@ pub mod obj;
 pub mod ribbons;
 pub mod strips;
 
+use std::path::Path;
+
+use crate::error::BakeError;
+use cyhair::HairLimits;
+
 /// A set of strands. Strand `s` owns `segments[s] + 1` consecutive points.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Strands {
@@ -26,4 +31,33 @@ pub struct Strands {
     pub default_transparency: f32,
     /// Colour where no per-point value is stored.
     pub default_color: [f32; 3],
+}
+
+/// Reads strands: a `.hair` file when it starts with `HAIR`/`hair`, OBJ polylines otherwise.
+pub fn load(path: &Path) -> Result<Strands, BakeError> {
+    let limits = HairLimits::default();
+    // The largest file the limits allow: header, segments, and every per-point array.
+    let max_bytes = 128 + 2 * limits.max_strands + 32 * limits.max_points;
+    let len = std::fs::metadata(path).map_err(|e| BakeError::io(path, e))?.len();
+    if len > max_bytes {
+        return Err(BakeError::Limit {
+            path: path.into(),
+            what: "strand file size".into(),
+            value: len,
+            limit: max_bytes,
+        });
+    }
+    let bytes = std::fs::read(path).map_err(|e| BakeError::io(path, e))?;
+    if bytes.starts_with(b"HAIR") || bytes.starts_with(b"hair") {
+        return cyhair::decode(&bytes, &limits).map_err(|e| match e.over_limit {
+            Some((value, limit)) => {
+                BakeError::Limit { path: path.into(), what: format!("{} in the header", e.message), value, limit }
+            }
+            None => BakeError::input(path, Some(e.place), e.message),
+        });
+    }
+    let text = std::str::from_utf8(&bytes).map_err(|e| {
+        BakeError::input(path, Some(format!("byte {}", e.valid_up_to())), "expected a .hair signature or OBJ text")
+    })?;
+    obj::parse(text, limits.max_points).map_err(|(place, message)| BakeError::input(path, Some(place), message))
 }

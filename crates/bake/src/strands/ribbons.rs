@@ -7,28 +7,22 @@
 //! indices, 6 per segment. `hikage export --gltf` writes them as glTF `POSITION`, `NORMAL`,
 //! `COLOR_0`, `_PARAM`, `_WIDTH` and `_OPACITY`.
 
+use glam::Vec3;
 use hikage_bundle::MeshData;
 
 use super::Strands;
 use super::strips::{StripSets, strand_starts, tangent};
 
-fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-
-fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn normalize(a: [f32; 3]) -> Option<[f32; 3]> {
-    let l = dot(a, a).sqrt();
-    (l > 1e-12).then(|| [a[0] / l, a[1] / l, a[2] / l])
+/// `v / |v|`, or `None` when `v` is shorter than 1e-12.
+fn unit(v: Vec3) -> Option<Vec3> {
+    let l = v.length();
+    (l > 1e-12).then(|| v / l)
 }
 
 /// A unit vector across `t`.
-fn any_across(t: [f32; 3]) -> [f32; 3] {
-    let helper = if t[1].abs() < 0.9 { [0.0, 1.0, 0.0] } else { [1.0, 0.0, 0.0] };
-    normalize(cross(t, helper)).unwrap_or([1.0, 0.0, 0.0])
+fn any_across(t: Vec3) -> Vec3 {
+    let helper = if t.y.abs() < 0.9 { Vec3::Y } else { Vec3::X };
+    unit(t.cross(helper)).unwrap_or(Vec3::X)
 }
 
 /// The ribbon mesh.
@@ -53,12 +47,7 @@ pub fn build(s: &Strands, sets: &StripSets) -> MeshData {
             let t = tangent(&s.points, a, b, p);
             // Parallel transport: the previous side vector with its component along the new
             // tangent removed (the smallest rotation that keeps it across the strand).
-            across = normalize([
-                across[0] - t[0] * dot(across, t),
-                across[1] - t[1] * dot(across, t),
-                across[2] - t[2] * dot(across, t),
-            ])
-            .unwrap_or_else(|| any_across(t));
+            across = unit(across - t * across.dot(t)).unwrap_or_else(|| any_across(t));
             let u = if b - a > 1 { (p - a) as f32 / (b - a - 1) as f32 } else { 0.0 };
             let k = if thick_ref > 0.0 { s.thickness.as_ref().map_or(thick_ref, |x| x[p]) / thick_ref } else { 1.0 };
             let w = sets.shading.0 * k * (1.0 - sets.taper * u);
@@ -67,16 +56,11 @@ pub fn build(s: &Strands, sets: &StripSets) -> MeshData {
             } else {
                 1.0
             };
-            let face = normalize(cross(t, across)).unwrap_or([0.0, 0.0, 1.0]);
+            let face = unit(t.cross(across)).unwrap_or(Vec3::Z);
             let c = s.color.as_ref().map_or(s.default_color, |x| x[p]);
             for side in [-0.5f32, 0.5] {
-                let q = s.points[p];
-                position.extend([
-                    q[0] + across[0] * w * side,
-                    q[1] + across[1] * w * side,
-                    q[2] + across[2] * w * side,
-                ]);
-                normal.extend(face);
+                position.extend((Vec3::from(s.points[p]) + across * w * side).to_array());
+                normal.extend(face.to_array());
                 param.push(u);
                 width.push(w);
                 opacity.push((sets.shading.1 * alpha_k).clamp(0.0, 1.0));
@@ -127,20 +111,18 @@ mod tests {
         let sets = StripSets { shading: (0.02, 0.5), opacity: (0.2, 0.05), taper: 0.0 };
         let mesh = build(&s, &sets);
         let pos = mesh.read_f32("position").unwrap();
-        let mut previous: Option<[f32; 3]> = None;
+        let mut previous: Option<Vec3> = None;
         for p in 0..40 {
-            let l = &pos[6 * p..6 * p + 3];
-            let r = &pos[6 * p + 3..6 * p + 6];
-            let side = [r[0] - l[0], r[1] - l[1], r[2] - l[2]];
-            assert!((dot(side, side).sqrt() - 0.02).abs() < 1e-6);
-            let unit = normalize(side).unwrap();
+            let side = Vec3::from_slice(&pos[6 * p + 3..]) - Vec3::from_slice(&pos[6 * p..]);
+            assert!((side.length() - 0.02).abs() < 1e-6);
+            let across = side.normalize();
             let t = tangent(&s.points, 0, 40, p);
-            assert!(dot(unit, t).abs() < 1e-4, "side not across the strand at {p}");
+            assert!(across.dot(t).abs() < 1e-4, "side not across the strand at {p}");
             if let Some(prev) = previous {
                 // Consecutive sides differ by at most the tangent's turn (0.3 rad per step here).
-                assert!(dot(unit, prev) > 0.3f32.cos() - 1e-3, "twist at {p}");
+                assert!(across.dot(prev) > 0.3f32.cos() - 1e-3, "twist at {p}");
             }
-            previous = Some(unit);
+            previous = Some(across);
         }
         assert_eq!(mesh.read_indices().unwrap().len(), 39 * 6);
     }

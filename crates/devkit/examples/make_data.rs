@@ -1,8 +1,8 @@
 //! Regenerates the sample heightfields in `data/` from the generators in
-//! `hikage_bake::synth`. Run from the repository root:
+//! `hikage_devkit::synth`. Run from the repository root:
 //!
 //! ```text
-//! cargo run --release -p hikage-bake --example make_data
+//! cargo run --release -p hikage-devkit --example make_data
 //! ```
 //!
 //! The outputs are deterministic; `tests/` checks that the committed files still decode to what
@@ -13,7 +13,7 @@ use std::path::Path;
 use exr::prelude::{
     AnyChannel, AnyChannels, Compression, Encoding, FlatSamples, Image, LayerAttributes, SmallVec, WritableImage,
 };
-use hikage_bake::synth;
+use hikage_devkit::synth;
 
 fn png16(path: &Path, n: u32, v: &[f32]) {
     let px: Vec<u16> = v.iter().map(|x| (x.clamp(0.0, 1.0) * 65535.0).round() as u16).collect();

@@ -34,7 +34,7 @@ pub fn bundle(data: &[u8]) {
     let _ = std::fs::create_dir_all(&dir);
     static PAYLOAD: OnceLock<()> = OnceLock::new();
     PAYLOAD.get_or_init(|| {
-        let hf = crate::Heightfield::from_samples(4, 4, (0..16).map(|i| i as f32 / 15.0).collect());
+        let hf = hikage_bake::Heightfield::from_samples(4, 4, (0..16).map(|i| i as f32 / 15.0).collect());
         if let Ok(t) = hf.to_texture(hikage_bundle::TextureFormat::R16Float) {
             if let Ok(bytes) = hikage_bundle::ktx2_file::encode(&t, "fuzz") {
                 let _ = std::fs::write(scratch().join("bundle").join("t.ktx2"), bytes);
@@ -62,21 +62,21 @@ pub fn ktx2(data: &[u8]) {
     let _ = hikage_bundle::ktx2_file::decode(data, path, &limits);
 }
 
-/// `.hair` bytes → [`crate::strands::cyhair::decode`], and strips of what it accepts.
+/// `.hair` bytes → [`hikage_bake::strands::cyhair::decode`], and strips of what it accepts.
 pub fn hair(data: &[u8]) {
-    let limits = crate::strands::cyhair::HairLimits { max_strands: 100_000, max_points: 1_000_000 };
-    if let Ok(s) = crate::strands::cyhair::decode(data, &limits) {
-        let sets = crate::strands::strips::StripSets::from_source(&s);
-        let _ = crate::strands::strips::build(&s, &sets);
+    let limits = hikage_bake::strands::cyhair::HairLimits { max_strands: 100_000, max_points: 1_000_000 };
+    if let Ok(s) = hikage_bake::strands::cyhair::decode(data, &limits) {
+        let sets = hikage_bake::strands::strips::StripSets::from_source(&s);
+        let _ = hikage_bake::strands::strips::build(&s, &sets);
     }
 }
 
-/// OBJ text → [`crate::strands::obj::parse`] (polylines), and strips of what it accepts.
+/// OBJ text → [`hikage_bake::strands::obj::parse`] (polylines), and strips of what it accepts.
 pub fn obj_polylines(data: &[u8]) {
     if let Ok(text) = std::str::from_utf8(data) {
-        if let Ok(s) = crate::strands::obj::parse(text, 1_000_000) {
-            let sets = crate::strands::strips::StripSets::from_source(&s);
-            let _ = crate::strands::strips::build(&s, &sets);
+        if let Ok(s) = hikage_bake::strands::obj::parse(text, 1_000_000) {
+            let sets = hikage_bake::strands::strips::StripSets::from_source(&s);
+            let _ = hikage_bake::strands::strips::build(&s, &sets);
         }
     }
 }
@@ -85,30 +85,30 @@ pub fn obj_polylines(data: &[u8]) {
 pub fn pipeline(data: &[u8]) {
     if let Ok(text) = std::str::from_utf8(data) {
         let path = Path::new("<fuzz>/pipeline.ron");
-        if let Ok(p) = crate::Pipeline::parse(text, path) {
+        if let Ok(p) = hikage_bake::Pipeline::parse(text, path) {
             let _ = p.check(path);
         }
     }
 }
 
-/// PNG or OpenEXR bytes → [`crate::heightfield::load_samples`] (sides up to 1024).
+/// PNG or OpenEXR bytes → [`hikage_bake::heightfield::load_samples`] (sides up to 1024).
 pub fn heightfield(data: &[u8]) {
     let path = scratch().join("heightfield");
     if std::fs::write(&path, data).is_ok() {
-        let options = crate::LoadOptions { channel: None, max_dimension: 1024 };
-        let _ = crate::heightfield::load_samples(&path, &options);
+        let options = hikage_bake::LoadOptions { channel: None, max_dimension: 1024 };
+        let _ = hikage_bake::heightfield::load_samples(&path, &options);
     }
 }
 
-/// Mesh bytes → [`crate::mesh::load`] as glTF (`.gltf`: GLB or JSON) and as OBJ, then
+/// Mesh bytes → [`hikage_bake::mesh::load`] as glTF (`.gltf`: GLB or JSON) and as OBJ, then
 /// curvature of what they accept (files up to 1 MiB).
 pub fn mesh(data: &[u8]) {
-    let limits = crate::mesh::MeshLimits { max_bytes: 1 << 20 };
+    let limits = hikage_bake::mesh::MeshLimits { max_bytes: 1 << 20 };
     for name in ["mesh.gltf", "mesh.obj"] {
         let path = scratch().join(name);
         if std::fs::write(&path, data).is_ok() {
-            if let Ok(m) = crate::mesh::load(&path, limits) {
-                let _ = crate::curvature::compute(&m);
+            if let Ok(m) = hikage_bake::mesh::load(&path, limits) {
+                let _ = hikage_bake::curvature::compute(&m);
             }
         }
     }

@@ -2,7 +2,7 @@
 //! and opacity of their own.
 
 use super::noise::hash01;
-use crate::strands::Strands;
+use hikage_bake::strands::Strands;
 
 /// Half-axes of the head ellipsoid (x across, y up, z forward), in centimetres.
 const HEAD: [f32; 3] = [8.0, 10.5, 9.5];

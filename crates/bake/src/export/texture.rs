@@ -6,7 +6,6 @@
 //! EXR: one layer per slice (named `slice0000`, … when there are several), each holding the
 //! picked channel or all channels as 32-bit float, named as in the manifest.
 
-use std::io::Write;
 use std::path::Path;
 
 use exr::prelude::{
@@ -78,7 +77,7 @@ pub fn export_texture(
         ExportFormat::Raw => raw_bytes(&tex, &values, &picked),
         ExportFormat::Exr => exr_bytes(&tex, &values, &picked, out)?,
     };
-    write_via_temp(out, &bytes)?;
+    super::write_via_temp(out, &bytes)?;
     Ok(ExportSummary {
         slices,
         width: w,
@@ -141,19 +140,4 @@ fn exr_bytes(tex: &TextureData, all: &[f32], picked: &[usize], out: &Path) -> Re
         .to_buffered(&mut cursor)
         .map_err(|e| BakeError::input(out, None, format!("cannot encode OpenEXR: {e}")))?;
     Ok(cursor.into_inner())
-}
-
-fn write_via_temp(out: &Path, bytes: &[u8]) -> Result<(), BakeError> {
-    let name = out.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "export".into());
-    let tmp = out.with_file_name(format!(".{name}.hikage-tmp"));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, out)
-    })();
-    result.map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        BakeError::io(out, e)
-    })
 }

@@ -4,8 +4,10 @@
 //! Written independently of the baker (no canonical orientation, no hulls, no stencil, no
 //! tables) so that it can serve as its oracle.
 
-use super::{Edge, HorizonSettings};
-use crate::heightfield::Heightfield;
+use hikage_bundle::EdgeMode;
+
+use hikage_bake::Heightfield;
+use hikage_bake::horizon::HorizonParams;
 
 /// World height of sample (row, col), or `None` outside a clamped map.
 fn sample(hf: &Heightfield, wrap: bool, row: i64, col: i64) -> Option<f64> {
@@ -34,8 +36,8 @@ fn along(x: f64, at: impl Fn(i64) -> Option<f64>) -> Option<f64> {
 
 /// Brute-force `(tan β, d)` of texel (`row`, `col`) in direction `phi` (radians, texel space,
 /// from +u toward +v); `tan β` is `-∞` when the ray has no sample.
-pub fn brute_force(hf: &Heightfield, s: &HorizonSettings, row: usize, col: usize, phi: f64) -> (f64, f64) {
-    let wrap = s.edge == Edge::Wrap;
+pub fn horizon(hf: &Heightfield, s: &HorizonParams, row: usize, col: usize, phi: f64) -> (f64, f64) {
+    let wrap = s.edge == EdgeMode::Wrap;
     let (c, sn) = (phi.cos(), phi.sin());
     let c = if c.abs() < 1e-12 { 0.0 } else { c };
     let sn = if sn.abs() < 1e-12 { 0.0 } else { sn };

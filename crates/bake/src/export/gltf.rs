@@ -114,6 +114,6 @@ pub fn export_gltf(bundle: &Bundle, id: &str, out: &Path) -> Result<(u32, u32), 
     let mesh = bundle.read_mesh(id)?;
     let bytes =
         glb(&mesh, hikage_bundle::GENERATOR).map_err(|m| BakeError::input(out, Some(format!("asset `{id}`")), m))?;
-    std::fs::write(out, bytes).map_err(|e| BakeError::io(out, e))?;
+    super::write_via_temp(out, &bytes)?;
     Ok((mesh.desc.vertex_count, mesh.desc.indices.as_ref().map_or(0, |i| i.count)))
 }

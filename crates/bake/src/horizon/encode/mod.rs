@@ -1,0 +1,123 @@
+//! How a horizon texel is stored: the three formats, the open-sky value, and the one encoder
+//! and decoder of `(tan β, d)` every part of the baker uses.
+
+pub(super) mod rg8;
+
+use hikage_bundle::TextureFormat;
+use serde::{Deserialize, Serialize};
+
+use super::HorizonTexture;
+
+/// Slope stored for a ray that has no sample (clamp mode, at the edge looking out). It is the
+/// most negative half float, so it survives every storage format (rg8 stores β = −90°).
+pub const OPEN_SKY_SLOPE: f32 = -65504.0;
+
+/// Storage of the horizon texture: channel 0 is `tan β`, channel 1 is `d`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum HorizonFormat {
+    /// Half floats (default): one fetch gives both, 4 bytes per texel-direction.
+    #[default]
+    #[cfg_attr(feature = "clap", value(name = "rg16f"))]
+    Rg16Float,
+    /// 32-bit floats, exact.
+    #[cfg_attr(feature = "clap", value(name = "rg32f"))]
+    Rg32Float,
+    /// 8-bit, the paper's memory: channel 0 is `β / π + 0.5` (β in radians, so ±90° map to
+    /// 0 and 1, a step of 0.71°), channel 1 is `d / distance_scale`.
+    #[cfg_attr(feature = "clap", value(name = "rg8"))]
+    Rg8Unorm,
+}
+
+impl HorizonFormat {
+    /// The texture format.
+    pub fn texture_format(self) -> TextureFormat {
+        match self {
+            HorizonFormat::Rg16Float => TextureFormat::Rg16Float,
+            HorizonFormat::Rg32Float => TextureFormat::Rg32Float,
+            HorizonFormat::Rg8Unorm => TextureFormat::Rg8Unorm,
+        }
+    }
+}
+
+/// Writes a row of texels (`tan β`, `d`) in `format` into `out` (exactly `s.len()` texels), in
+/// reverse order when `reversed`. A slope of `-∞` (no sample) becomes the open-sky value. Half
+/// floats are converted a row at a time (F16C where the processor has it); `halves` is scratch.
+pub(super) fn encode_row(
+    format: HorizonFormat,
+    s: &mut [f32],
+    t: &mut [f32],
+    distance_scale: f32,
+    out: &mut [u8],
+    reversed: bool,
+    halves: &mut Vec<half::f16>,
+) {
+    for (s, t) in s.iter_mut().zip(t.iter_mut()) {
+        if *s < -1.0e20 {
+            (*s, *t) = (OPEN_SKY_SLOPE, 0.0);
+        }
+    }
+    let (tb, n) = (format.texture_format().texel_bytes(), s.len());
+    if format != HorizonFormat::Rg16Float {
+        for (i, (&s, &t)) in s.iter().zip(t.iter()).enumerate() {
+            let j = if reversed { n - 1 - i } else { i };
+            encode(format, s, t, distance_scale, &mut out[j * tb..(j + 1) * tb]);
+        }
+        return;
+    }
+    use half::slice::HalfFloatSliceExt;
+    s.iter_mut().zip(t.iter_mut()).for_each(|(s, t)| (*s, *t) = f16_range(*s, *t));
+    halves.resize(2 * n, half::f16::ZERO);
+    let (hs, ht) = halves.split_at_mut(n);
+    hs.convert_from_f32_slice(s);
+    ht.convert_from_f32_slice(t);
+    let texels = out.chunks_exact_mut(4);
+    let write = |(o, (&s, &t)): (&mut [u8], (&half::f16, &half::f16))| put_f16(o, s, t);
+    if reversed {
+        texels.rev().zip(hs.iter().zip(ht.iter())).for_each(write);
+    } else {
+        texels.zip(hs.iter().zip(ht.iter())).for_each(write);
+    }
+}
+
+/// Writes one texel (`tan β`, `d`) in `format` into `out` (exactly one texel long).
+pub(super) fn encode(format: HorizonFormat, slope: f32, dist: f32, distance_scale: f32, out: &mut [u8]) {
+    match format {
+        HorizonFormat::Rg8Unorm => {
+            out[0] = rg8::code(slope);
+            out[1] = rg8::unorm(dist / distance_scale);
+        }
+        HorizonFormat::Rg16Float => {
+            let (s, d) = f16_range(slope, dist);
+            put_f16(out, half::f16::from_f32(s), half::f16::from_f32(d));
+        }
+        HorizonFormat::Rg32Float => {
+            out[..4].copy_from_slice(&slope.to_le_bytes());
+            out[4..8].copy_from_slice(&dist.to_le_bytes());
+        }
+    }
+}
+
+/// A texel clamped to what an rg16f texel holds: slopes within ±`-OPEN_SKY_SLOPE`, distances
+/// at most `-OPEN_SKY_SLOPE` (f16 would round larger values to infinity).
+#[inline(always)]
+fn f16_range(slope: f32, dist: f32) -> (f32, f32) {
+    (slope.clamp(OPEN_SKY_SLOPE, -OPEN_SKY_SLOPE), dist.min(-OPEN_SKY_SLOPE))
+}
+
+/// Writes an rg16f texel into `out` (exactly one texel long).
+#[inline(always)]
+fn put_f16(out: &mut [u8], slope: half::f16, dist: half::f16) {
+    out[..2].copy_from_slice(&slope.to_le_bytes());
+    out[2..4].copy_from_slice(&dist.to_le_bytes());
+}
+
+/// Decodes texel `(k, row, col)` of a horizon texture to `(tan β, d)`.
+pub fn decode(texture: &HorizonTexture, k: usize, row: usize, col: usize) -> (f32, f32) {
+    let desc = &texture.texture.desc;
+    let tb = desc.format.texel_bytes();
+    let i = ((k * desc.height as usize + row) * desc.width as usize + col) * tb;
+    let bytes = &texture.texture.levels[0][i..i + tb];
+    let (a, b) = (desc.format.decode_channel(bytes, 0), desc.format.decode_channel(bytes, 1));
+    hikage_bundle::manifest::decode_horizon_texel(desc.format, a, b, texture.distance_scale, OPEN_SKY_SLOPE)
+}

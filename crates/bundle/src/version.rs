@@ -1,0 +1,26 @@
+//! The bundle format version, which readers check before anything else.
+
+use std::fmt;
+
+use serde::{Deserialize, Serialize};
+
+/// Bundle format version. Readers accept any minor of their major.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct FormatVersion {
+    /// Incompatible changes.
+    pub major: u32,
+    /// Additions an older reader of the same major can ignore.
+    pub minor: u32,
+}
+
+impl FormatVersion {
+    /// The version this crate writes and reads. 1.1 added the `Horizon`, `AmbientOcclusion`
+    /// and `Curvature` kinds; 1.2 the `Relief` and `MaxMip` kinds.
+    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 2 };
+}
+
+impl fmt::Display for FormatVersion {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}.{}", self.major, self.minor)
+    }
+}
