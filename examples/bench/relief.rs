@@ -4,8 +4,9 @@
 use std::path::Path;
 
 use hikage_bake::heightfield::{Heightfield, LoadOptions, load_samples};
-use hikage_bake::relief::{self, ReliefParams, march_depth};
+use hikage_bake::relief::{self, ReliefParams};
 use hikage_bundle::relief::ReliefRay;
+use hikage_devkit::brute_force;
 use hikage_devkit::synth;
 use hikage_runtime::relief::{Reads, ReliefMaps, Tracer, fine_march};
 use rayon::prelude::*;
@@ -117,7 +118,7 @@ pub fn run() {
             .collect::<Vec<_>>()
             .into_par_iter()
             .map(|(l, t)| {
-                march_depth(
+                brute_force::relief_depth(
                     &heights,
                     (hf.width, hf.height),
                     (t % hf.width, t / hf.width),

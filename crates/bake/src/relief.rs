@@ -280,32 +280,3 @@ pub fn max_mip_texture(mm: &MaxMip) -> TextureData {
         levels,
     }
 }
-
-/// Brute-force reference for tests and benchmarks: a march in steps of `1/steps_per_texel`
-/// texel from the texel centre, every step a height read, then the depth at the first step
-/// inside (no max-mip, no shared traversal).
-pub fn march_depth(
-    heights: &[f32],
-    (w, h): (u32, u32),
-    (i, j): (u32, u32),
-    dir: [f32; 3],
-    thickness: f32,
-    steps_per_texel: f32,
-) -> f32 {
-    let step = 1.0 / steps_per_texel;
-    let dz = dir[2] / thickness;
-    let mut s = 0.0f32;
-    loop {
-        let z = s * dz;
-        if z >= 1.0 {
-            return 1.0;
-        }
-        let u = (i as f32 + 0.5 + s * dir[0]).floor() as i64;
-        let v = (j as f32 + 0.5 + s * dir[1]).floor() as i64;
-        let height = heights[(v.rem_euclid(h as i64) * w as i64 + u.rem_euclid(w as i64)) as usize];
-        if z >= 1.0 - height {
-            return z;
-        }
-        s += step;
-    }
-}

@@ -1,8 +1,9 @@
 //! Relief depth maps against an independent brute-force march.
 
 use hikage_bake::heightfield::Heightfield;
-use hikage_bake::relief::{self, ReliefFormat, ReliefParams, march_depth, min_downscale};
+use hikage_bake::relief::{self, ReliefFormat, ReliefParams, min_downscale};
 use hikage_bundle::relief::{MaxMip, ReliefDirections};
+use hikage_devkit::brute_force;
 use hikage_devkit::synth;
 
 fn families(n: u32) -> Vec<(&'static str, Vec<f32>)> {
@@ -33,7 +34,7 @@ fn full_resolution_maps_agree_with_a_brute_force_march() {
             for j in 0..n {
                 for i in 0..n {
                     let baked = stored[(layer * n * n + j * n + i) as usize];
-                    let brute = march_depth(&heights, (n, n), (i, j), dir, thickness, steps);
+                    let brute = brute_force::relief_depth(&heights, (n, n), (i, j), dir, thickness, steps);
                     assert!(baked <= brute + 1e-4, "{name} layer {layer} texel ({i},{j}): baked {baked} brute {brute}");
                     worst = worst.max(brute - baked);
                     total += 1;

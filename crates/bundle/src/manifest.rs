@@ -321,7 +321,7 @@ pub struct AmbientOcclusionSettings {
     pub directions: u32,
 }
 
-/// How a heightfield's samples map to world space (DESIGN.md "World units").
+/// How a heightfield's samples map to world space (see `docs/conventions.md`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct HeightfieldSettings {
     /// World units per texel along `u` (columns) and `v` (rows); may differ.

@@ -1,7 +1,7 @@
 //! Texture descriptions and in-memory texel data.
 //!
 //! Texel layout follows KTX2 and wgpu: level → layer → z slice → row (`v`) → column (`u`) →
-//! channel, little-endian. Row 0 is the first row in memory (DESIGN.md "Texture space").
+//! channel, little-endian. Row 0 is the first row in memory (see `docs/conventions.md`).
 
 use serde::{Deserialize, Serialize};
 

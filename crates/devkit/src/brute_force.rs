@@ -1,4 +1,6 @@
-//! The brute-force reference: a ray per texel over the bilinear surface, sampled at every
+//! Brute-force references the bakers are measured against, written independently of them.
+//!
+//! Horizons: a ray per texel over the bilinear surface, sampled at every
 //! grid-line crossing, in plain texel space. `O(N·D·R)`; for tests and benchmarks on small maps.
 //!
 //! Written independently of the baker (no canonical orientation, no hulls, no stencil, no
@@ -99,4 +101,34 @@ pub fn horizon(hf: &Heightfield, s: &HorizonParams, row: usize, col: usize, phi:
         }
     }
     (best, best_d)
+}
+
+/// The relief baker's reference: the first-hit depth of the ray from texel (`i`, `j`) of a
+/// tiling heightfield along `dir` (`z` down, the relief `thickness` texels deep), by a march in steps of `1/steps_per_texel`
+/// texel from the texel centre, every step a height read, then the depth at the first step
+/// inside (no max-mip, no shared traversal).
+pub fn relief_depth(
+    heights: &[f32],
+    (w, h): (u32, u32),
+    (i, j): (u32, u32),
+    dir: [f32; 3],
+    thickness: f32,
+    steps_per_texel: f32,
+) -> f32 {
+    let step = 1.0 / steps_per_texel;
+    let dz = dir[2] / thickness;
+    let mut s = 0.0f32;
+    loop {
+        let z = s * dz;
+        if z >= 1.0 {
+            return 1.0;
+        }
+        let u = (i as f32 + 0.5 + s * dir[0]).floor() as i64;
+        let v = (j as f32 + 0.5 + s * dir[1]).floor() as i64;
+        let height = heights[(v.rem_euclid(h as i64) * w as i64 + u.rem_euclid(w as i64)) as usize];
+        if z >= 1.0 - height {
+            return z;
+        }
+        s += step;
+    }
 }

@@ -2,7 +2,7 @@
 //! 120 frames along a path through them. Each frame is drawn with four light projections at the
 //! same 1024² shadow-map resolution — a fixed frustum around the whole scene, the seed's fit to
 //! the visible geometry, the fit snapped to the texel grid, and the fit in post-perspective
-//! space — and the figures of DESIGN.md are printed: texel density σ on visible surfaces
+//! space — and the figures of docs/shadow-fit.md are printed: texel density σ on visible surfaces
 //! (shadow-map texels per screen pixel; median and 10th percentile), the share of shadow-map
 //! texels visible pixels use, and on a slow path the share of pixels whose lit state flips
 //! between frames. σ is checked on the CPU for sampled pixels. Writes a PNG strip of frames with

@@ -1,4 +1,4 @@
-//! Heightfields: import from PNG and OpenEXR, and the world-space conventions of DESIGN.md.
+//! Heightfields: import from PNG and OpenEXR, and their world units (`docs/conventions.md`).
 //!
 //! A heightfield is a grid of samples, row-major with row 0 first (`u` = column, `v` = row).
 //! Integer images are normalised to [0, 1] (8-bit by 255, 16-bit by 65535); float images are

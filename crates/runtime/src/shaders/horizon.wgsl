@@ -1,5 +1,5 @@
 // Curvature-corrected horizon shadows: Onoue, Max & Nishita, "Bumpmap shadows on curved
-// surfaces" (hikage seed 000), eq. (1)-(3), as stated in hikage's DESIGN.md.
+// surfaces", eq. (1)-(3), as stated in docs/conventions.md.
 //
 // Conventions: the horizon map is a W x H x D 3D texture, azimuth phi_k = 2 pi k / D on the
 // depth axis, phi measured in texel space from +u toward +v; channel x = tan(beta), y = d
