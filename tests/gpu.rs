@@ -4,8 +4,8 @@
 use hikage_bundle::{
     BundleWriter, Settings, Supercompression, TextureData, TextureDesc, TextureDimension, TextureFormat, WriteMode,
 };
-use hikage_runtime::headless::{Headless, gpu_required};
 use hikage_runtime::{CpuBundle, GpuBundle, RuntimeError, wgpu};
+use hikage_scenes::headless::{Headless, gpu_required};
 
 use crate::util::Dir;
 
@@ -375,7 +375,7 @@ fn horizon_shader_agrees_with_its_cpu_reference() {
 fn lit_sphere_render_matches_the_cpu_reference_per_pixel() {
     use hikage_runtime::glam::Vec3;
     use hikage_runtime::horizon::HorizonMap;
-    use hikage_runtime::horizon_sphere::{SphereScene, render, render_cpu, shadowed_fraction};
+    use hikage_scenes::horizon_sphere::{SphereScene, render, render_cpu, shadowed_fraction};
 
     let dir = Dir::new("gpu_sphere");
     dir.copy_data();
@@ -461,7 +461,7 @@ fn lit_sphere_render_matches_the_cpu_reference_per_pixel() {
 fn relief_quad_render_matches_the_cpu_tracers() {
     use hikage_runtime::glam::Vec3;
     use hikage_runtime::relief::{Reads, ReliefMaps, Tracer};
-    use hikage_runtime::relief_plane::{PlaneView, SHADOW_BIAS, camera_ray, render};
+    use hikage_scenes::relief_plane::{PlaneView, SHADOW_BIAS, camera_ray, render};
 
     let dir = Dir::new("gpu_relief");
     dir.copy_data();
@@ -535,7 +535,7 @@ fn shadow_fit_scene_sigma_matches_the_cpu() {
     use hikage_runtime::glam::camera::rh::proj::directx;
     use hikage_runtime::glam::camera::rh::view::look_at_mat4;
     use hikage_runtime::shadow_fit::{self, FitOptions, Light, Scratch};
-    use hikage_runtime::shadow_scene::{FrameSetup, Scene, check_sigma, frame_stats, render_frame};
+    use hikage_scenes::shadow_scene::{FrameSetup, Scene, check_sigma, frame_stats, render_frame};
 
     let Some(g) = gpu("shadow_fit_scene_sigma_matches_the_cpu") else { return };
     let scene = Scene::boxes(60, 100.0, 3);
@@ -581,7 +581,8 @@ fn hair_opacity_maps_match_the_cpu_accumulation() {
     use hikage_bake::strands::Strands;
     use hikage_bake::strands::strips::{StripSets, build};
     use hikage_runtime::glam::Vec3;
-    use hikage_runtime::hair::{GpuStrips, HairLight, HairSet, StripArrays, accumulate_cpu, render_opacity_maps};
+    use hikage_runtime::hair::{HairLight, HairSet, StripArrays, accumulate_cpu};
+    use hikage_scenes::hair_scene::{GpuStrips, render_opacity_maps};
 
     let Some(g) = gpu("hair_opacity_maps_match_the_cpu_accumulation") else { return };
     // Three straight strands along x at different heights, overlapping seen from above, a

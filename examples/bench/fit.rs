@@ -4,7 +4,7 @@ use hikage_runtime::glam::Vec3;
 use hikage_runtime::glam::camera::rh::proj::directx;
 use hikage_runtime::glam::camera::rh::view::look_at_mat4;
 use hikage_runtime::shadow_fit::{self, FitOptions, Light, Scratch};
-use hikage_runtime::shadow_scene::Scene;
+use hikage_scenes::shadow_scene::Scene;
 
 use crate::best_of;
 

@@ -22,7 +22,4 @@ pub enum RuntimeError {
         /// wgpu's message.
         message: String,
     },
-    /// No adapter or device could be created.
-    #[error("no GPU device: {0}")]
-    NoDevice(String),
 }

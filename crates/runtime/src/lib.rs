@@ -7,7 +7,6 @@
 //!   level uploaded) and mesh buffers. Anything the device cannot hold becomes a
 //!   [`RuntimeError`], never a wgpu validation panic.
 //!
-//! [`headless`] opens a device without a window (Mesa lavapipe on CI) for tests and examples.
 //! [`horizon`] holds the WGSL of curvature-corrected horizon shadows and its CPU reference;
 //! [`relief`] the relief-mapping tracers (seed 003), shadows and ambient occlusion, with theirs;
 //! [`shadow_fit`] the per-frame light-projection fit of seed 001 (CPU, glam).
@@ -16,14 +15,10 @@
 
 mod error;
 pub mod hair;
-pub mod headless;
 pub mod horizon;
-pub mod horizon_sphere;
 mod load;
 pub mod relief;
-pub mod relief_plane;
 pub mod shadow_fit;
-pub mod shadow_scene;
 mod upload;
 
 pub use error::RuntimeError;

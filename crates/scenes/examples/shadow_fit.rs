@@ -9,20 +9,17 @@
 //! their shadow maps.
 //!
 //! ```text
-//! cargo run --release -p hikage-runtime --example shadow_fit -- docs/images
+//! cargo run --release -p hikage-scenes --example shadow_fit -- docs/images
 //! ```
 
 use std::path::PathBuf;
 
-#[path = "common/png.rs"]
-mod png;
-
 use hikage_runtime::glam::camera::rh::proj::directx;
 use hikage_runtime::glam::camera::rh::view::look_at_mat4;
 use hikage_runtime::glam::{Mat4, Vec3};
-use hikage_runtime::headless::Headless;
 use hikage_runtime::shadow_fit::{self, FitOptions, Light, Scratch};
-use hikage_runtime::shadow_scene::{
+use hikage_scenes::headless::Headless;
+use hikage_scenes::shadow_scene::{
     FACE_NORMALS, FrameData, FrameSetup, Scene, check_sigma, flips, frame_stats, render_frame,
 };
 
@@ -244,7 +241,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     let path = out.join("shadow_fit.png");
-    png::save(&image, &path)?;
+    hikage_scenes::png::save(&image, &path)?;
     println!("\nwrote {}", path.display());
     Ok(())
 }

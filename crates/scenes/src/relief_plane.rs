@@ -1,16 +1,16 @@
 //! The reference scene of seed 003: one tile of a relief as a quad (the top plane `z = 0`, world
 //! `x = u`, `y = v` in texels, `z` up) seen by a pinhole camera, traced per pixel. The GPU draws
 //! it with [`render`]; [`camera_ray`] gives the same ray per pixel on the CPU so the tracers of
-//! [`crate::relief`] can be compared pixel by pixel. Used by the `relief_plane` example and the
+//! [`hikage_runtime::relief`] can be compared pixel by pixel. Used by the `relief_plane` example and the
 //! GPU tests.
 
 use glam::Vec3;
 use hikage_bundle::relief::ReliefRay;
 
 use crate::headless::{Headless, clear_attachment, plain_target, render_pipeline};
-use crate::relief::{ReliefMaps, Tracer};
+use hikage_runtime::relief::{ReliefMaps, Tracer};
 
-/// WGSL of the scene; prepend [`crate::relief::RELIEF_WGSL`] and append
+/// WGSL of the scene; prepend [`hikage_runtime::relief::RELIEF_WGSL`] and append
 /// [`crate::headless::FULLSCREEN_WGSL`].
 pub const PLANE_WGSL: &str = include_str!("shaders/relief_plane.wgsl");
 
@@ -85,7 +85,7 @@ pub struct PixelData {
     pub ao: f32,
 }
 
-/// The `ReliefParams` uniform of [`crate::relief::RELIEF_WGSL`] for `maps` and `tracer`.
+/// The `ReliefParams` uniform of [`hikage_runtime::relief::RELIEF_WGSL`] for `maps` and `tracer`.
 pub fn relief_params(maps: &ReliefMaps, tracer: Tracer) -> Vec<u8> {
     let (steps, binary, start, stop, margin) = match tracer {
         Tracer::Linear { steps, binary } | Tracer::DepthMap { steps, binary } => (steps, binary, 0, 0, 0.0),
@@ -127,7 +127,8 @@ pub fn render(
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("relief plane"),
         source: wgpu::ShaderSource::Wgsl(
-            format!("{}\n{}\n{}", crate::relief::RELIEF_WGSL, PLANE_WGSL, crate::headless::FULLSCREEN_WGSL).into(),
+            format!("{}\n{}\n{}", hikage_runtime::relief::RELIEF_WGSL, PLANE_WGSL, crate::headless::FULLSCREEN_WGSL)
+                .into(),
         ),
     });
     let targets = [

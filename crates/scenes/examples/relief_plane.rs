@@ -6,19 +6,16 @@
 //!
 //! ```text
 //! cargo run --release -- bake                      # makes bundle/ with relief_*.relief
-//! cargo run --release -p hikage-runtime --example relief_plane -- bundle docs/images
+//! cargo run --release -p hikage-scenes --example relief_plane -- bundle docs/images
 //! ```
 
 use std::path::PathBuf;
 
-#[path = "common/png.rs"]
-mod png;
-
 use hikage_runtime::glam::Vec3;
-use hikage_runtime::headless::Headless;
 use hikage_runtime::relief::{ReliefMaps, Tracer};
-use hikage_runtime::relief_plane::{PlaneView, render};
 use hikage_runtime::{CpuBundle, GpuBundle};
+use hikage_scenes::headless::Headless;
+use hikage_scenes::relief_plane::{PlaneView, render};
 
 /// Blue → green → yellow → red over `[0, 1]`.
 fn heat(t: f32) -> [u8; 4] {
@@ -73,8 +70,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             println!(
                 "| {family} | {} | {:.1} | {:.1} |",
                 tracer.name(),
-                mean(|p: &&hikage_runtime::relief_plane::PixelData| p.height_reads),
-                mean(|p: &&hikage_runtime::relief_plane::PixelData| p.depth_reads)
+                mean(|p: &&hikage_scenes::relief_plane::PixelData| p.height_reads),
+                mean(|p: &&hikage_scenes::relief_plane::PixelData| p.depth_reads)
             );
             for (i, (px, c)) in pixels.iter().zip(rgba.chunks_exact(4)).enumerate() {
                 let (x, y) = (k as u32 * w + i as u32 % w, i as u32 / w);
@@ -84,7 +81,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
         let path = out.join(format!("relief_{family}.png"));
-        png::save(&image, &path)?;
+        hikage_scenes::png::save(&image, &path)?;
         println!("wrote {} (reads scale 0–{most})", path.display());
     }
     Ok(())

@@ -6,21 +6,19 @@
 //!
 //! ```text
 //! cargo run --release -- bake      # makes bundle/ with head.strips and head_auto.strips
-//! cargo run --release -p hikage-runtime --example hair_shadow -- bundle docs/images
+//! cargo run --release -p hikage-scenes --example hair_shadow -- bundle docs/images
 //! ```
 
 use std::path::PathBuf;
-
-#[path = "common/png.rs"]
-mod png;
 
 use hikage_bundle::Settings;
 use hikage_runtime::glam::Vec3;
 use hikage_runtime::glam::camera::rh::proj::directx;
 use hikage_runtime::glam::camera::rh::view::{look_at_mat4, look_to_mat4};
-use hikage_runtime::hair::{GpuStrips, HairLight, HairSet, high_frequency_energy, render_opacity_maps, render_scene};
-use hikage_runtime::headless::Headless;
+use hikage_runtime::hair::{HairLight, HairSet};
 use hikage_runtime::{CpuBundle, GpuBundle};
+use hikage_scenes::hair_scene::{GpuStrips, high_frequency_energy, render_opacity_maps, render_scene};
+use hikage_scenes::headless::Headless;
 
 const RESOLUTION: u32 = 256;
 
@@ -90,7 +88,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     let path = out.join("hair_shadow.png");
-    png::save(&image, &path)?;
+    hikage_scenes::png::save(&image, &path)?;
     println!("wrote {}", path.display());
     Ok(())
 }

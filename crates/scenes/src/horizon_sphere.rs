@@ -10,9 +10,9 @@
 use glam::{Vec2, Vec3};
 
 use crate::headless::{Headless, clear_attachment, plain_target, render_pipeline};
-use crate::horizon::{HorizonMap, horizon_shadow_lit};
+use hikage_runtime::horizon::{HorizonMap, horizon_shadow_lit};
 
-/// WGSL of the scene; prepend [`crate::horizon::HORIZON_WGSL`] and append
+/// WGSL of the scene; prepend [`hikage_runtime::horizon::HORIZON_WGSL`] and append
 /// [`crate::headless::FULLSCREEN_WGSL`].
 pub const SPHERE_WGSL: &str = include_str!("shaders/horizon_sphere.wgsl");
 
@@ -93,7 +93,8 @@ pub fn render(
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("horizon sphere"),
         source: wgpu::ShaderSource::Wgsl(
-            format!("{}\n{}\n{}", crate::horizon::HORIZON_WGSL, SPHERE_WGSL, crate::headless::FULLSCREEN_WGSL).into(),
+            format!("{}\n{}\n{}", hikage_runtime::horizon::HORIZON_WGSL, SPHERE_WGSL, crate::headless::FULLSCREEN_WGSL)
+                .into(),
         ),
     });
     let targets = [plain_target(wgpu::TextureFormat::Rgba8Unorm), plain_target(wgpu::TextureFormat::R32Uint)];
@@ -115,7 +116,7 @@ pub fn render(
     ];
     let bytes: Vec<u8> = uniform.iter().flat_map(|v| v.to_le_bytes()).collect();
     let ubuf = gpu.buffer(bytes.len() as u64, wgpu::BufferUsages::UNIFORM, Some(&bytes));
-    let sampler = crate::horizon::horizon_sampler(device);
+    let sampler = hikage_runtime::horizon::horizon_sampler(device);
     let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: None,
         layout: &pipeline.get_bind_group_layout(0),

@@ -4,15 +4,15 @@
 //!
 //! ```text
 //! cargo run --release -- bake                      # makes bundle/ with cylinders.horizon
-//! cargo run --release -p hikage-runtime --example horizon_sphere -- bundle docs/images
+//! cargo run --release -p hikage-scenes --example horizon_sphere -- bundle docs/images
 //! ```
 
 use std::path::PathBuf;
 
 use hikage_runtime::glam::Vec3;
-use hikage_runtime::headless::Headless;
-use hikage_runtime::horizon_sphere::{SphereScene, render, shadowed_fraction};
 use hikage_runtime::{CpuBundle, GpuBundle};
+use hikage_scenes::headless::Headless;
+use hikage_scenes::horizon_sphere::{SphereScene, render, shadowed_fraction};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);

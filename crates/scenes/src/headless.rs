@@ -1,11 +1,11 @@
-//! A device without a window, for tests, examples and offline rendering.
+//! A device without a window, for tests, examples and the bench (the framework of the scenes,
+//! never part of a game).
 //!
 //! On CI this is Mesa's lavapipe (a software Vulkan device); on a desktop any adapter wgpu
 //! finds. [`gpu_required`] reads `HIKAGE_REQUIRE_GPU`: tests skip when no adapter exists unless
 //! it is `1`.
 
-use crate::error::RuntimeError;
-use crate::upload::block_on;
+use pollster::block_on;
 
 /// True when `HIKAGE_REQUIRE_GPU=1`: a missing adapter must fail tests instead of skipping them.
 pub fn gpu_required() -> bool {
@@ -25,7 +25,7 @@ pub struct Headless {
 impl Headless {
     /// Opens the first adapter wgpu offers (software adapters included) and a device with the
     /// adapter's limits.
-    pub fn new() -> Result<Headless, RuntimeError> {
+    pub fn new() -> Result<Headless, String> {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let adapter = block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
             power_preference: wgpu::PowerPreference::None,
@@ -33,14 +33,14 @@ impl Headless {
             compatible_surface: None,
             ..Default::default()
         }))
-        .map_err(|e| RuntimeError::NoDevice(e.to_string()))?;
+        .map_err(|e| format!("no GPU device: {e}"))?;
         let (device, queue) = block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("hikage headless"),
             required_features: wgpu::Features::empty(),
             required_limits: adapter.limits(),
             ..Default::default()
         }))
-        .map_err(|e| RuntimeError::NoDevice(e.to_string()))?;
+        .map_err(|e| format!("no GPU device: {e}"))?;
         Ok(Headless { adapter, device, queue })
     }
 

@@ -1,5 +1,5 @@
 //! The reference scene of seed 001: a few hundred boxes over a large ground, drawn with a shadow
-//! map from one light whose projection is fixed, fitted ([`crate::shadow_fit`]) or fitted in
+//! map from one light whose projection is fixed, fitted ([`hikage_runtime::shadow_fit`]) or fitted in
 //! post-perspective space. [`render_frame`] draws one frame on the GPU and reads back, per
 //! pixel, the shadow-map texel coordinates, the texel density σ, the lit flag and the world
 //! position; [`sigma_cpu`] recomputes σ for a pixel from the camera and light matrices alone, so
@@ -8,7 +8,7 @@
 use glam::{Mat4, Vec3, Vec4};
 
 use crate::headless::{Headless, clear_attachment, depth_attachment, depth_test, plain_target, render_pipeline};
-use crate::shadow_fit::{MeshRef, Sphere};
+use hikage_runtime::shadow_fit::{MeshRef, Sphere};
 
 /// WGSL of the two passes.
 pub const SCENE_WGSL: &str = include_str!("shaders/shadow_scene.wgsl");

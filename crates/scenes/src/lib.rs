@@ -1,0 +1,30 @@
+//! hikage-scenes: the offscreen harness and the demo scenes shared by the runtime's examples,
+//! the GPU tests and the bench, in the manner of the wgpu examples' framework. Nothing here is
+//! part of what a game links (`publish = false`); the examples draw through
+//! `hikage-runtime`'s public API and use this crate only for a device, read-back and PNGs.
+//!
+//! - [`headless`]: a device without a window, read-back of buffers and textures.
+//! - [`png`]: PNG output for the pictures in `docs/images/`.
+//! - [`horizon_sphere`], [`relief_plane`], [`shadow_scene`], [`hair_scene`]: analytic reference
+//!   scenes whose every pixel a CPU function reproduces, for the GPU tests and the figures.
+
+pub mod hair_scene;
+pub mod headless;
+pub mod horizon_sphere;
+pub mod png;
+pub mod relief_plane;
+pub mod shadow_scene;
+
+use std::path::Path;
+
+use hikage_runtime::{CpuBundle, GpuBundle};
+
+/// What every example starts with: the bundle read and checked, a headless device, and the
+/// bundle uploaded to it. Prints the adapter.
+pub fn open_bundle(dir: &Path) -> Result<(CpuBundle, headless::Headless, GpuBundle), Box<dyn std::error::Error>> {
+    let cpu = CpuBundle::read(dir)?;
+    let gpu = headless::Headless::new()?;
+    println!("adapter: {}", gpu.describe());
+    let uploaded = GpuBundle::upload(&gpu.device, &gpu.queue, &cpu)?;
+    Ok((cpu, gpu, uploaded))
+}
