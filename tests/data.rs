@@ -27,6 +27,8 @@ fn committed_samples_match_their_generators() {
     check("relief_spikes.png", 256, synth::spikes_and_walls(256), q8);
     let sphere = std::fs::read_to_string(repo().join("data/sphere.obj")).unwrap();
     assert!(sphere == synth::uv_sphere_obj(1.0 / 0.015, 48, 24, 3.0), "sphere.obj differs from its generator");
+    let torus = std::fs::read(repo().join("data/torus.glb")).unwrap();
+    assert!(torus == synth::torus_glb(100.0, 40.0, 64, 32, (4.0, 1.0)), "torus.glb differs from its generator");
 }
 
 #[test]

@@ -7,3 +7,7 @@ mod bake;
 mod corpus;
 mod data;
 mod gpu;
+mod gpu_fit;
+mod gpu_hair;
+mod gpu_horizon;
+mod gpu_relief;

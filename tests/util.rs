@@ -125,3 +125,36 @@ pub fn stdout(out: &Output) -> String {
 pub fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
+
+/// A device, or `None` with the reason printed when there is none and it is not required
+/// (`HIKAGE_REQUIRE_GPU=1` turns a missing device into a failure).
+pub fn gpu(test: &str) -> Option<hikage_scenes::headless::Headless> {
+    use hikage_scenes::headless::{Headless, gpu_required};
+    match Headless::new() {
+        Ok(g) => Some(g),
+        Err(e) if !gpu_required() => {
+            eprintln!("skipping {test}: {e} (set HIKAGE_REQUIRE_GPU=1 to make this a failure)");
+            None
+        }
+        Err(e) => panic!("{test}: HIKAGE_REQUIRE_GPU=1 but {e}"),
+    }
+}
+
+/// A bundle baked once per test process from the default pipeline's jobs named in `ids`, shared
+/// by the GPU tests (read-only).
+pub fn shared_bundle(name: &str, pipeline: &str) -> PathBuf {
+    use std::collections::HashMap;
+    use std::sync::{Mutex, OnceLock};
+    static BAKED: OnceLock<Mutex<HashMap<String, PathBuf>>> = OnceLock::new();
+    let mut baked = BAKED.get_or_init(Default::default).lock().unwrap_or_else(|e| e.into_inner());
+    baked
+        .entry(name.to_string())
+        .or_insert_with(|| {
+            let dir = Dir::new(name);
+            dir.copy_data();
+            dir.write("pipeline.ron", pipeline);
+            dir.run(&["bake"]);
+            dir.path("bundle")
+        })
+        .clone()
+}

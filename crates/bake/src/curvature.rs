@@ -21,12 +21,18 @@ pub struct VertexCurvature {
     pub k1: f64,
     /// Smaller principal curvature.
     pub k2: f64,
-    /// First principal direction as `(V1·P̂_u, V1·P̂_v)`, normalised.
+    /// First principal direction as its dot products with the unit tangents of +u and +v,
+    /// `(V1·P̂_u, V1·P̂_v)`, normalised (components only where those are orthogonal).
     pub dir1_uv: DVec2,
     /// Second principal direction, likewise.
     pub dir2_uv: DVec2,
     /// Unit normal.
     pub normal: DVec3,
+    /// `P_u = ∂P/∂u`, world units per texture unit: the area-weighted mean over the vertex's
+    /// triangles (the frame the runtime takes the light into).
+    pub pu: DVec3,
+    /// `P_v = ∂P/∂v`, likewise.
+    pub pv: DVec3,
 }
 
 /// Why curvature cannot be computed.
@@ -106,6 +112,7 @@ pub fn compute(mesh: &Mesh) -> Result<Vec<VertexCurvature>, CurvatureError> {
     // Per vertex: texture frame from the UV gradients of its triangles.
     let mut pu = vec![DVec3::ZERO; mesh.vertex_uv.len()];
     let mut pv = vec![DVec3::ZERO; mesh.vertex_uv.len()];
+    let mut weight = vec![0.0f64; mesh.vertex_uv.len()];
     for (ti, t) in mesh.triangles.iter().enumerate() {
         let (p0, p1, p2) = (pos(t[0]), pos(t[1]), pos(t[2]));
         let (w0, w1, w2) =
@@ -122,8 +129,31 @@ pub fn compute(mesh: &Mesh) -> Result<Vec<VertexCurvature>, CurvatureError> {
         for &v in t {
             pu[v as usize] += dpdu * area;
             pv[v as usize] += dpdv * area;
+            weight[v as usize] += area;
         }
     }
+
+    // Copies of one position split by a periodic UV seam (a torus's u = 0 and u = 1) each saw
+    // the triangles on one side only; where their frames agree they are one frame, and get the
+    // mean over both sides. Copies whose frames differ (a mirrored island) keep their own.
+    let mut copies: Vec<Vec<usize>> = vec![Vec::new(); np];
+    for v in 0..mesh.vertex_uv.len() {
+        copies[mesh.vertex_position[v] as usize].push(v);
+    }
+    let agree = |a: DVec3, b: DVec3| a.normalize_or_zero().dot(b.normalize_or_zero()) > 0.9;
+    let (mut pu_seamless, mut pv_seamless, mut weight_seamless) = (pu.clone(), pv.clone(), weight.clone());
+    for group in copies.iter().filter(|g| g.len() > 1) {
+        for &v in group {
+            for &w in group.iter().filter(|&&w| w != v) {
+                if agree(pu[v], pu[w]) && agree(pv[v], pv[w]) {
+                    pu_seamless[v] += pu[w];
+                    pv_seamless[v] += pv[w];
+                    weight_seamless[v] += weight[w];
+                }
+            }
+        }
+    }
+    let (pu, pv, weight) = (pu_seamless, pv_seamless, weight_seamless);
 
     Ok((0..mesh.vertex_uv.len())
         .map(|v| {
@@ -132,7 +162,16 @@ pub fn compute(mesh: &Mesh) -> Result<Vec<VertexCurvature>, CurvatureError> {
             let project = |x: DVec3| (x - n * x.dot(n)).normalize_or_zero();
             let (eu, ev) = (project(pu[v]), project(pv[v]));
             let in_frame = |d: DVec3| DVec2::new(d.dot(eu), d.dot(ev)).normalize_or_zero();
-            VertexCurvature { k1, k2, dir1_uv: in_frame(v1), dir2_uv: in_frame(v2), normal: n }
+            let w = weight[v].max(1e-300);
+            VertexCurvature {
+                k1,
+                k2,
+                dir1_uv: in_frame(v1),
+                dir2_uv: in_frame(v2),
+                normal: n,
+                pu: pu[v] / w,
+                pv: pv[v] / w,
+            }
         })
         .collect())
 }

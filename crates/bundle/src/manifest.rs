@@ -37,12 +37,15 @@ pub enum AssetKind {
     /// `φ_k = 2πk/D` on the depth axis; channel 0 `tan β`, channel 1 `d` (world units).
     Horizon,
     /// Ambient occlusion derived from horizons: a one-channel 2D texture, the occluded share of
-    /// the cosine-weighted hemisphere (0 open, 1 closed).
+    /// the cosine-weighted hemisphere (0 open, 1 closed). Sky visibility, the factor ambient
+    /// light is multiplied by, is `1 − ao`.
     AmbientOcclusion,
     /// Per-vertex principal curvatures of a mesh (seed 000 §3.1): a mesh with F32 streams
     /// `position` (3), `uv` (2), `normal` (3), `curvature` (κ1 ≥ κ2, 1/world units), `principal1`
     /// and `principal2` (2 each: the principal directions in the vertex's texture frame, as
-    /// components along the unit tangents of +u and +v), and U32 triangle indices.
+    /// their dot products with the unit tangents of +u and +v), since format 1.3 `tangent_u`
+    /// and `tangent_v` (3 each: `P_u = ∂P/∂u`, `P_v = ∂P/∂v`, world units per texture unit), and
+    /// U32 triangle indices.
     Curvature,
     /// Relief-mapping depth maps (seed 003): a one-channel 2D-array texture, one layer per
     /// hemisphere direction ([`crate::relief::ReliefDirections`]), each texel the normalised
@@ -184,6 +187,44 @@ impl Settings {
             Settings::Strands(_) => AssetKind::Strands,
         }
     }
+
+    /// Ids of the other assets these settings name and a reader needs with them: a horizon's
+    /// heightfield, an ambient-occlusion map's horizon, relief maps' max-mip pyramid.
+    pub fn depends_on(&self) -> Vec<&str> {
+        match self {
+            Settings::Horizon(h) => vec![h.heightfield.as_str()],
+            Settings::AmbientOcclusion(a) => vec![a.horizon.as_str()],
+            Settings::Relief(r) => vec![r.max_mip.as_str()],
+            _ => Vec::new(),
+        }
+    }
+}
+
+/// `Settings::heightfield()` and its siblings: the settings of one kind, or `None`.
+macro_rules! settings_accessors {
+    ($($name:ident => $variant:ident($ty:ty)),* $(,)?) => {
+        impl Settings {
+            $(
+                #[doc = concat!("The settings of a `", stringify!($variant), "` asset, or `None` for another kind.")]
+                pub fn $name(&self) -> Option<&$ty> {
+                    match self {
+                        Settings::$variant(s) => Some(s),
+                        _ => None,
+                    }
+                }
+            )*
+        }
+    };
+}
+
+settings_accessors! {
+    heightfield => Heightfield(HeightfieldSettings),
+    horizon => Horizon(HorizonSettings),
+    ambient_occlusion => AmbientOcclusion(AmbientOcclusionSettings),
+    curvature => Curvature(CurvatureSettings),
+    relief => Relief(ReliefSettings),
+    max_mip => MaxMip(MaxMipSettings),
+    strands => Strands(StrandsSettings),
 }
 
 /// How hair strips were baked (seed 004). Widths and opacities are those of a strand with the

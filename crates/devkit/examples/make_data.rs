@@ -51,6 +51,8 @@ fn main() {
     png8(&data.join("relief_spikes.png"), 256, &synth::spikes_and_walls(256));
     // Seed 000's sphere of curvature 0.015 (radius 66.7), three bump tiles around.
     std::fs::write(data.join("sphere.obj"), synth::uv_sphere_obj(1.0 / 0.015, 48, 24, 3.0)).unwrap();
+    // A torus for κ1 ≠ κ2 (seed 000 eq. 1): tube curvature 1/40, ring curvature 1/140 outside.
+    std::fs::write(data.join("torus.glb"), synth::torus_glb(100.0, 40.0, 64, 32, (4.0, 1.0))).unwrap();
     // Seed 004's hair: 10,000 strands × 22 points. Positions only: the per-strand width and
     // opacity arrays would add 1.8 MB and break data/'s 4 MiB budget; the header defaults are
     // the paper's shading set (width 0.016 cm here, opacity 0.366).

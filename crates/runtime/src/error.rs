@@ -14,6 +14,15 @@ pub enum RuntimeError {
         /// What the device lacks.
         message: String,
     },
+    /// An asset a component was given is missing from the uploaded bundle, or is not of the
+    /// kind the component needs.
+    #[error("asset `{asset}`: {message}")]
+    Asset {
+        /// The asset id.
+        asset: String,
+        /// What was expected and what was found.
+        message: String,
+    },
     /// wgpu reported a validation or out-of-memory error while uploading.
     #[error("asset `{asset}`: wgpu rejected the upload: {message}")]
     Wgpu {

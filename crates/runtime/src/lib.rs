@@ -14,6 +14,7 @@
 //! The runtime never links the baker: a game needs only this crate and `hikage-bundle`.
 
 mod error;
+mod gpu;
 pub mod hair;
 pub mod horizon;
 mod load;
@@ -26,3 +27,27 @@ pub use glam;
 pub use load::{CpuAsset, CpuBundle, CpuPayload};
 pub use upload::{GpuBundle, GpuMesh, GpuTexture, wgpu_format};
 pub use wgpu;
+
+/// Every WGSL source the crate builds, as a component builds it, parses and validates (naga,
+/// no device): a typo in a shader fails here, not in a game's first frame.
+#[cfg(test)]
+mod wgsl_tests {
+    #[test]
+    fn every_shader_validates() {
+        let sources = [
+            ("horizon", crate::horizon::HORIZON_WGSL.to_string()),
+            ("terrain", format!("{}\n{}", crate::horizon::HORIZON_WGSL, include_str!("shaders/terrain.wgsl"))),
+            ("surface", format!("{}\n{}", crate::horizon::HORIZON_WGSL, include_str!("shaders/surface.wgsl"))),
+        ];
+        for (name, source) in sources {
+            for group in [0, 3] {
+                let source = crate::gpu::at_group(&source, group);
+                let module = naga::front::wgsl::parse_str(&source)
+                    .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&source)));
+                naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+                    .validate(&module)
+                    .unwrap_or_else(|e| panic!("{name} at group {group}: {}", e.emit_to_string(&source)));
+            }
+        }
+    }
+}

@@ -55,6 +55,16 @@ pub struct GpuBundle {
 }
 
 impl GpuBundle {
+    /// The texture `id`, or an error listing the textures there are.
+    pub fn texture(&self, id: &str) -> Result<&GpuTexture, RuntimeError> {
+        self.textures.get(id).ok_or_else(|| missing(id, "texture", self.textures.keys()))
+    }
+
+    /// The mesh `id`, or an error listing the meshes there are.
+    pub fn mesh(&self, id: &str) -> Result<&GpuMesh, RuntimeError> {
+        self.meshes.get(id).ok_or_else(|| missing(id, "mesh", self.meshes.keys()))
+    }
+
     /// Uploads every asset. Sizes are checked against the device's limits first, and the
     /// upload runs inside a validation error scope, so a bundle the device cannot hold gives an
     /// error naming the asset.
@@ -73,6 +83,14 @@ impl GpuBundle {
             }
         }
         Ok(out)
+    }
+}
+
+fn missing<'a>(id: &str, what: &str, have: impl Iterator<Item = &'a String>) -> RuntimeError {
+    let have: Vec<&str> = have.map(String::as_str).collect();
+    RuntimeError::Asset {
+        asset: id.to_string(),
+        message: format!("no such {what} was uploaded; there are: {}", have.join(", ")),
     }
 }
 

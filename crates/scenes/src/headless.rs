@@ -143,6 +143,58 @@ impl Headless {
     }
 }
 
+/// The formats [`Headless::render`] draws into: what the examples and tests build components for.
+pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+/// See [`COLOR_FORMAT`]: the components' visibility target.
+pub const VISIBILITY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// See [`COLOR_FORMAT`].
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// One rendered frame read back.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frame {
+    /// Width and height.
+    pub size: (u32, u32),
+    /// sRGB RGBA8 pixels, row-major (ready for a PNG).
+    pub color: Vec<u8>,
+    /// The visibility target's pixels (zero where nothing was drawn).
+    pub visibility: Vec<[f32; 4]>,
+}
+
+impl Headless {
+    /// Renders one pass into a `size` colour target ([`COLOR_FORMAT`], cleared to `clear`), a
+    /// visibility target ([`VISIBILITY_FORMAT`], cleared to zero) and a depth target
+    /// ([`DEPTH_FORMAT`]); `draw` records the pass. Reads both colour targets back.
+    pub fn render(&self, size: (u32, u32), clear: wgpu::Color, draw: impl FnOnce(&mut wgpu::RenderPass<'_>)) -> Frame {
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
+        let color = self.texture(size, COLOR_FORMAT, usage);
+        let visibility = self.texture(size, VISIBILITY_FORMAT, usage);
+        let depth = self.texture(size, DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
+        let (cv, vv, dv) = (
+            color.create_view(&Default::default()),
+            visibility.create_view(&Default::default()),
+            depth.create_view(&Default::default()),
+        );
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("frame"),
+                color_attachments: &[clear_attachment(&cv, clear), clear_attachment(&vv, wgpu::Color::TRANSPARENT)],
+                depth_stencil_attachment: depth_attachment(&dv),
+                ..Default::default()
+            });
+            draw(&mut pass);
+        }
+        self.queue.submit([encoder.finish()]);
+        let visibility = self
+            .read_texture(&visibility)
+            .chunks_exact(16)
+            .map(|c| std::array::from_fn(|k| f32::from_le_bytes([c[4 * k], c[4 * k + 1], c[4 * k + 2], c[4 * k + 3]])))
+            .collect();
+        Frame { size, color: self.read_texture(&color), visibility }
+    }
+}
+
 /// WGSL of a vertex stage `vs` drawing one triangle over the whole target (3 vertices, no
 /// buffers), for scenes whose fragment stage computes each pixel's ray.
 pub const FULLSCREEN_WGSL: &str = include_str!("shaders/fullscreen.wgsl");

@@ -5,6 +5,7 @@
 //!
 //! - [`headless`]: a device without a window, read-back of buffers and textures.
 //! - [`png`]: PNG output for the pictures in `docs/images/`.
+//! - [`raster`]: a CPU rasteriser, so a test can run a shader's CPU reference per pixel.
 //! - [`horizon_sphere`], [`relief_plane`], [`shadow_scene`], [`hair_scene`]: analytic reference
 //!   scenes whose every pixel a CPU function reproduces, for the GPU tests and the figures.
 
@@ -12,6 +13,7 @@ pub mod hair_scene;
 pub mod headless;
 pub mod horizon_sphere;
 pub mod png;
+pub mod raster;
 pub mod relief_plane;
 pub mod shadow_scene;
 

@@ -11,7 +11,7 @@ use crate::error::BakeError;
 use crate::mesh;
 
 /// Version of the curvature job; part of the input hash.
-pub const ALGORITHM_VERSION: u32 = 1;
+pub const ALGORITHM_VERSION: u32 = 2;
 
 /// Settings of a curvature bake.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -86,6 +86,8 @@ impl Baker for CurvatureJob {
         data.push_f32("curvature", 2, &flat(&|v| vec![c[v].k1 as f32, c[v].k2 as f32]))?;
         data.push_f32("principal1", 2, &flat(&|v| c[v].dir1_uv.as_vec2().to_array().to_vec()))?;
         data.push_f32("principal2", 2, &flat(&|v| c[v].dir2_uv.as_vec2().to_array().to_vec()))?;
+        data.push_f32("tangent_u", 3, &flat(&|v| c[v].pu.as_vec3().to_array().to_vec()))?;
+        data.push_f32("tangent_v", 3, &flat(&|v| c[v].pv.as_vec3().to_array().to_vec()))?;
         let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
         data.set_indices(&indices)?;
         (ctx.progress)(1, 1);

@@ -80,3 +80,36 @@ pub fn cylinder_obj(r: f64, height: f64, segments: u32, rows: u32) -> String {
     }
     s
 }
+
+/// A torus as binary glTF: ring radius `major` around +y, tube radius `minor`, `segments` around
+/// the ring and `rings` around the tube; `u` runs `tiles.0` times around the ring, `v`
+/// `tiles.1` times around the tube, starting at the outer equator and turning up over the top.
+/// Its principal curvatures differ (1/`minor` across the tube; `cos ψ/(major + minor cos ψ)`
+/// along the ring), which is what exercises eq. (1) of seed 000 with κ1 ≠ κ2.
+pub fn torus_glb(major: f32, minor: f32, segments: u32, rings: u32, tiles: (f32, f32)) -> Vec<u8> {
+    let tau = std::f32::consts::TAU;
+    let (mut position, mut uv, mut indices) = (Vec::new(), Vec::new(), Vec::new());
+    // Seam vertices repeat the first row's and column's positions bit for bit (the angle of the
+    // last one is taken as 0), so a reader welds them and curvature sees one closed surface.
+    for r in 0..=rings {
+        let psi = tau * (r % rings) as f32 / rings as f32;
+        for s in 0..=segments {
+            let phi = tau * (s % segments) as f32 / segments as f32;
+            let radius = major + minor * psi.cos();
+            position.extend([radius * phi.cos(), minor * psi.sin(), -radius * phi.sin()]);
+            uv.extend([tiles.0 * s as f32 / segments as f32, tiles.1 * r as f32 / rings as f32]);
+        }
+    }
+    let at = |r: u32, s: u32| r * (segments + 1) + s;
+    for r in 0..rings {
+        for s in 0..segments {
+            // Counter-clockwise seen from outside.
+            indices.extend([at(r, s), at(r, s + 1), at(r + 1, s + 1), at(r, s), at(r + 1, s + 1), at(r + 1, s)]);
+        }
+    }
+    let mut mesh = hikage_bundle::MeshData::new((rings + 1) * (segments + 1));
+    mesh.push_f32("position", 3, &position).expect("one position per vertex");
+    mesh.push_f32("uv", 2, &uv).expect("one uv per vertex");
+    mesh.set_indices(&indices).expect("indices below the vertex count");
+    hikage_bake::export::gltf::glb(&mesh, "hikage_devkit::synth::torus_glb").expect("f32 streams")
+}

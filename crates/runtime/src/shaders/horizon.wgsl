@@ -1,24 +1,41 @@
-// Curvature-corrected horizon shadows: Onoue, Max & Nishita, "Bumpmap shadows on curved
-// surfaces", eq. (1)-(3), as stated in docs/conventions.md.
+// Horizon shadows (Onoue, Max & Nishita, "Bumpmap shadows on curved surfaces"), eq. (1)-(3);
+// the equations and conventions are stated in docs/conventions.md. Each function has a CPU
+// reference of the same name and argument order in hikage_runtime::horizon.
 //
-// Conventions: the horizon map is a W x H x D 3D texture, azimuth phi_k = 2 pi k / D on the
-// depth axis, phi measured in texel space from +u toward +v; channel x = tan(beta), y = d
-// (world units). Sample it with linear filtering and Repeat on w so directions interpolate and
-// wrap 2 pi -> 0. Vectors named `light` are in the surface frame (P_u, P_v, N): x along +u,
-// y along +v, z along the normal. Each function has a CPU reference of the same name in
-// hikage_runtime::horizon.
+// Frames. The horizon map lives in the bump frame: x along +u, y along +v (texel space), z up,
+// all in the heightfield's world units. A light given in a mesh's space is taken into that
+// frame by horizon_surface_light; on terrain the bump frame is the terrain's own.
+// The map is a W x H x D 3D texture, azimuth phi_k = 2 pi k / D on the depth axis, measured in
+// texel space from +u toward +v; channel x = tan(beta), y = d (world units).
 
 const HORIZON_TAU: f32 = 6.283185307179586;
+const HORIZON_PI: f32 = 3.141592653589793;
 
-// Eq. (1): normal curvature along the light's azimuth; (cos_phi, sin_phi) is the azimuth
-// measured from the first principal direction.
-fn horizon_local_curvature(k1: f32, k2: f32, cos_phi: f32, sin_phi: f32) -> f32 {
-    return k1 * cos_phi * cos_phi + k2 * sin_phi * sin_phi;
+// How the horizon texture stores a texel: format 0 float (as it is), 1 rg8 (x = beta/pi + 0.5,
+// 0 = open sky; y = d / distance_scale).
+struct HorizonEncoding {
+    format: u32,
+    distance_scale: f32,
+    open_sky_slope: f32,
+    _pad: f32,
 }
 
-// Eq. (2)-(3): the horizon slope seen from height h above a base surface of curvature kappa.
-// Convex (kappa > 0): the larger of the bump horizon lowered by the curvature (eq. 2) and the
-// curved base surface's own horizon (eq. 3, written as a negative slope). Concave: unchanged.
+// Eq. (1): the normal curvature along v, from the principal curvatures k1, k2 and the principal
+// directions v1, v2 (any lengths, orthogonal on the surface). Both directions are used, so the
+// result holds when the texture axes are not orthogonal; no square root is needed.
+fn horizon_local_curvature(k1: f32, k2: f32, v: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>) -> f32 {
+    let vv = dot(v, v);
+    if (vv <= 0.0) {
+        return 0.0;
+    }
+    let c = dot(v, v1);
+    let s = dot(v, v2);
+    return k1 * c * c / (vv * max(dot(v1, v1), 1e-30)) + k2 * s * s / (vv * max(dot(v2, v2), 1e-30));
+}
+
+// Eq. (2)-(3): the horizon slope seen from height h above a base surface of curvature kappa
+// (all in one unit of length). Convex: the larger of the bump horizon lowered by the curvature
+// (eq. 2) and the curved base surface's own horizon (eq. 3, a negative slope). Concave: as is.
 fn horizon_corrected_slope(tan_beta: f32, d: f32, kappa: f32, h: f32) -> f32 {
     if (kappa <= 0.0) {
         return tan_beta;
@@ -29,38 +46,131 @@ fn horizon_corrected_slope(tan_beta: f32, d: f32, kappa: f32, h: f32) -> f32 {
     return max(bump, base);
 }
 
-// Lit when the light's elevation above the tangent plane exceeds the horizon. Light from
-// behind the surface (z < 0) is not culled: a bump top can still be lit.
+// Lit when the light (bump frame) rises above the horizon slope. Light from below the tangent
+// plane is not culled: a bump top can still be lit.
 fn horizon_is_lit(light: vec3<f32>, tan_beta: f32) -> bool {
     return light.z > tan_beta * length(light.xy);
 }
 
-// (tan beta, d) at texture coordinate uv for texel-space azimuth phi (radians).
-fn horizon_fetch(map: texture_3d<f32>, samp: sampler, uv: vec2<f32>, phi: f32) -> vec2<f32> {
-    let directions = f32(textureDimensions(map).z);
-    let w = phi / HORIZON_TAU + 0.5 / directions;
-    return textureSampleLevel(map, samp, vec3<f32>(uv, w), 0.0).xy;
+// The texel-space azimuth of a bump-frame direction: x and y are world units along u and v, so
+// a heightfield of non-square texels (sx, sy) turns them before the angle is taken.
+fn horizon_texel_azimuth(light: vec3<f32>, texel_size: vec2<f32>) -> f32 {
+    return atan2(light.y / texel_size.y, light.x / texel_size.x);
 }
 
-// The whole test: is the point at uv, at height h above the base surface, lit by `light`?
-// k1, k2: principal curvatures; principal: the first principal direction in the (u, v) plane.
-fn horizon_shadow_lit(
-    map: texture_3d<f32>,
-    samp: sampler,
-    uv: vec2<f32>,
+// (tan beta, d) at texture coordinate uv for texel-space azimuth phi (radians), decoded.
+fn horizon_fetch(map: texture_3d<f32>, samp: sampler, enc: HorizonEncoding, uv: vec2<f32>, phi: f32) -> vec2<f32> {
+    let directions = f32(textureDimensions(map).z);
+    let w = phi / HORIZON_TAU + 0.5 / directions;
+    let t = textureSampleLevel(map, samp, vec3<f32>(uv, w), 0.0).xy;
+    if (enc.format == 1u) {
+        var slope = enc.open_sky_slope;
+        if (t.x > 0.0) {
+            slope = tan((t.x - 0.5) * HORIZON_PI);
+        }
+        return vec2<f32>(slope, t.y * enc.distance_scale);
+    }
+    return t;
+}
+
+// The share of a light disc of angular radius `radius` (radians) above a horizon when its centre
+// stands `above` radians over it: the area of a circular segment, exact for small discs. A
+// point light (radius 0) is all or nothing.
+fn horizon_disc_visible(above: f32, radius: f32) -> f32 {
+    if (radius <= 0.0) {
+        return select(0.0, 1.0, above > 0.0);
+    }
+    let t = clamp(above / radius, -1.0, 1.0);
+    return (acos(-t) + t * sqrt(1.0 - t * t)) / HORIZON_PI;
+}
+
+// The principal directions in mesh space (columns 0 and 1, not normalised), rebuilt from their
+// dot products d1, d2 with the unit tangents of +u and +v (the Curvature asset's principal1 and
+// principal2): the tangents are not orthogonal in general, so a dot product is not a component.
+fn horizon_principal_directions(pu: vec3<f32>, pv: vec3<f32>, n: vec3<f32>, d1: vec2<f32>, d2: vec2<f32>) -> mat2x3<f32> {
+    let eu = normalize(pu - n * dot(pu, n));
+    let ev = normalize(pv - n * dot(pv, n));
+    let c = dot(eu, ev);
+    return mat2x3<f32>((d1.x - c * d1.y) * eu + (d1.y - c * d1.x) * ev, (d2.x - c * d2.y) * eu + (d2.y - c * d2.x) * ev);
+}
+
+// A light on a curved surface, in the bump frame, with what eq. (2)-(3) need there.
+struct HorizonSurfaceLight {
+    // The light direction in the bump frame (not normalised).
     light: vec3<f32>,
+    // Eq. (1)'s curvature along the light, in 1/bump-world units.
+    kappa: f32,
+}
+
+// Takes light `l` (mesh space, any length) into the bump frame of a surface point whose texture
+// frame is pu = dP/du, pv = dP/dv (mesh units per texture unit) and unit normal n (outward),
+// with principal curvatures k1 >= k2 (1/mesh units) and principal directions d1, d2 given as dot
+// products with the unit tangents of +u and +v. One tile of the bump map spans `tile` =
+// (W sx, H sy) bump-world units: the frame is (pu / tile.x, pv / tile.y, n |pu x pv|^(1/2) /
+// (tile.x tile.y)^(1/2)), the seed's (P_u, P_v, N / |N|^(1/2)) scaled to the map's world size.
+fn horizon_surface_light(
+    l: vec3<f32>,
+    pu: vec3<f32>,
+    pv: vec3<f32>,
+    n: vec3<f32>,
     k1: f32,
     k2: f32,
-    principal: vec2<f32>,
-    h: f32,
-) -> bool {
-    let flat_len = length(light.xy);
-    if (flat_len <= 0.0) {
-        return light.z > 0.0;
+    d1: vec2<f32>,
+    d2: vec2<f32>,
+    tile: vec2<f32>,
+) -> HorizonSurfaceLight {
+    let hs = sqrt(length(cross(pu, pv)) / (tile.x * tile.y));
+    let au = pu / tile.x;
+    let av = pv / tile.y;
+    let an = n * hs;
+    // Cramer's rule: l = au x + av y + an z.
+    let det = dot(au, cross(av, an));
+    let lb = vec3<f32>(dot(l, cross(av, an)), dot(au, cross(l, an)), dot(au, cross(av, l))) / det;
+    // Eq. (1) in mesh space.
+    let v = horizon_principal_directions(pu, pv, n, d1, d2);
+    let kappa = horizon_local_curvature(k1, k2, l - n * dot(l, n), v[0], v[1]);
+    // Curvature along the light in bump units: lengths along it scale by g, heights by hs.
+    let across = length(lb.xy);
+    var g = 1.0;
+    if (across > 0.0) {
+        g = length(au * (lb.x / across) + av * (lb.y / across));
     }
-    let dir = light.xy / flat_len;
-    let p = normalize(principal);
-    let kappa = horizon_local_curvature(k1, k2, dot(dir, p), dir.x * p.y - dir.y * p.x);
-    let hd = horizon_fetch(map, samp, uv, atan2(light.y, light.x));
-    return horizon_is_lit(light, horizon_corrected_slope(hd.x, hd.y, kappa, h));
+    return HorizonSurfaceLight(lb, kappa * g * g / hs);
+}
+
+// The whole test at a surface point: `s` from horizon_surface_light, `h` the bump height there
+// (bump-world units above the base surface), `corrected` false for the flat test of Forsyth.
+fn horizon_surface_lit(
+    map: texture_3d<f32>,
+    samp: sampler,
+    enc: HorizonEncoding,
+    uv: vec2<f32>,
+    s: HorizonSurfaceLight,
+    h: f32,
+    texel_size: vec2<f32>,
+    corrected: bool,
+) -> bool {
+    let hd = horizon_fetch(map, samp, enc, uv, horizon_texel_azimuth(s.light, texel_size));
+    var kappa = 0.0;
+    if (corrected) {
+        kappa = s.kappa;
+    }
+    return horizon_is_lit(s.light, horizon_corrected_slope(hd.x, hd.y, kappa, h));
+}
+
+// Sun visibility on a heightfield drawn as geometry (no curvature): the share of a sun disc of
+// angular radius `radius` above the horizon, `sun` in the bump frame (x along +u, y along +v,
+// z up).
+fn horizon_sun_visible(
+    map: texture_3d<f32>,
+    samp: sampler,
+    enc: HorizonEncoding,
+    uv: vec2<f32>,
+    sun: vec3<f32>,
+    texel_size: vec2<f32>,
+    radius: f32,
+) -> f32 {
+    let hd = horizon_fetch(map, samp, enc, uv, horizon_texel_azimuth(sun, texel_size));
+    let elevation = atan2(sun.z, length(sun.xy));
+    return horizon_disc_visible(elevation - atan(hd.x), radius);
 }

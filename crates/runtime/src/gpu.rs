@@ -1,0 +1,139 @@
+//! What every component does with wgpu the same way: bind its group at the index the game
+//! chose, build a pipeline around it, hold a uniform, stand in for an optional texture.
+
+use crate::error::RuntimeError;
+
+/// WGSL `source` with its bindings moved to `@group(group)`. The shader files declare their
+/// bindings at `@group(0)`; a game that keeps its own bind groups at lower indices picks where
+/// a component's group goes.
+pub(crate) fn at_group(source: &str, group: u32) -> String {
+    source.replace("@group(0)", &format!("@group({group})"))
+}
+
+/// A pipeline layout with `layout` at `group` and nothing at the indices below it.
+pub(crate) fn pipeline_layout(
+    device: &wgpu::Device,
+    group: u32,
+    layout: &wgpu::BindGroupLayout,
+) -> wgpu::PipelineLayout {
+    let mut slots: Vec<Option<&wgpu::BindGroupLayout>> = vec![None; group as usize];
+    slots.push(Some(layout));
+    device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("hikage"),
+        bind_group_layouts: &slots,
+        immediate_size: 0,
+    })
+}
+
+/// A layout entry visible to the vertex and fragment stages.
+pub(crate) fn entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
+        ty,
+        count: None,
+    }
+}
+
+/// A uniform buffer binding.
+pub(crate) fn uniform_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    entry(
+        binding,
+        wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+    )
+}
+
+/// A float texture binding of `dimension`; `filterable` when it is sampled with filtering.
+pub(crate) fn texture_entry(
+    binding: u32,
+    dimension: wgpu::TextureViewDimension,
+    filterable: bool,
+) -> wgpu::BindGroupLayoutEntry {
+    entry(
+        binding,
+        wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable },
+            view_dimension: dimension,
+            multisampled: false,
+        },
+    )
+}
+
+/// A uniform buffer of `T`'s size, filled with `value`.
+pub(crate) fn uniform_buffer<T: bytemuck::Pod>(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    label: &str,
+    value: &T,
+) -> wgpu::Buffer {
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: std::mem::size_of::<T>() as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    queue.write_buffer(&buffer, 0, bytemuck::bytes_of(value));
+    buffer
+}
+
+/// A 1×1 single-channel float texture holding `value`: what a component binds where an
+/// optional asset (an ambient-occlusion map) is absent.
+pub(crate) fn constant_texture(device: &wgpu::Device, queue: &wgpu::Queue, value: f32) -> wgpu::TextureView {
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("hikage constant"),
+        size: wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::R32Float,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    queue.write_texture(
+        texture.as_image_copy(),
+        &value.to_le_bytes(),
+        wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4), rows_per_image: None },
+        wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
+    );
+    texture.create_view(&Default::default())
+}
+
+/// Depth testing with `Less` into a `format` attachment, written.
+pub(crate) fn depth_state(format: wgpu::TextureFormat) -> wgpu::DepthStencilState {
+    wgpu::DepthStencilState {
+        format,
+        depth_write_enabled: Some(true),
+        depth_compare: Some(wgpu::CompareFunction::Less),
+        stencil: Default::default(),
+        bias: Default::default(),
+    }
+}
+
+/// Colour targets of a component's pipeline: the game's `color` target, and the visibility
+/// target at location 1 when the game asked for one.
+pub(crate) fn targets(
+    color: wgpu::ColorTargetState,
+    visibility: Option<wgpu::TextureFormat>,
+) -> Vec<Option<wgpu::ColorTargetState>> {
+    let mut t = vec![Some(color)];
+    if let Some(format) = visibility {
+        t.push(Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL }));
+    }
+    t
+}
+
+/// Runs `create` inside a validation error scope: a pipeline or bind group wgpu refuses (a
+/// target format it cannot render to, a group index past the device's limit) becomes an error
+/// instead of a panic in the game's error handler.
+pub(crate) fn checked<T>(device: &wgpu::Device, what: &str, create: impl FnOnce() -> T) -> Result<T, RuntimeError> {
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let value = create();
+    match crate::upload::block_on(scope.pop()) {
+        Some(e) => Err(RuntimeError::Wgpu { asset: what.to_string(), message: e.to_string() }),
+        None => Ok(value),
+    }
+}

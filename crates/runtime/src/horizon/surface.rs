@@ -1,0 +1,422 @@
+//! [`SurfaceShadows`]: a bump map on a curved mesh with horizon shadows corrected for the
+//! mesh's curvature (seed 000 §3, the whole method), and [`SurfaceReference`], its CPU
+//! reference.
+
+use glam::{Mat4, Vec2, Vec3};
+use hikage_bundle::{ComponentType, MeshDesc};
+
+use super::terrain::{heightfield_settings, horizon_settings};
+use super::{
+    HORIZON_WGSL, HorizonEncoding, HorizonMap, horizon_filterable, horizon_sampler, horizon_surface_light,
+    horizon_surface_lit,
+};
+use crate::error::RuntimeError;
+use crate::gpu;
+use crate::load::CpuBundle;
+use crate::upload::{GpuBundle, GpuMesh};
+
+const SURFACE_WGSL: &str = include_str!("../shaders/surface.wgsl");
+
+/// The Curvature asset's streams the surface draws with, in shader location order, with their
+/// component counts.
+const STREAMS: [(&str, u8); 8] = [
+    ("position", 3),
+    ("uv", 2),
+    ("normal", 3),
+    ("curvature", 2),
+    ("principal1", 2),
+    ("principal2", 2),
+    ("tangent_u", 3),
+    ("tangent_v", 3),
+];
+
+/// What changes from frame to frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceFrame {
+    /// World → clip (wgpu: depth 0..1).
+    pub view_proj: Mat4,
+    /// Mesh space → world.
+    pub model: Mat4,
+    /// Unit direction toward a directional light, world space.
+    pub light: Vec3,
+    /// Linear RGB of the light.
+    pub light_color: Vec3,
+    /// Linear RGB of the ambient light.
+    pub ambient: Vec3,
+    /// Linear RGB albedo.
+    pub albedo: Vec3,
+    /// Apply the curvature correction; `false` gives the flat horizon test (Forsyth), for
+    /// comparison.
+    pub corrected: bool,
+}
+
+impl Default for SurfaceFrame {
+    fn default() -> SurfaceFrame {
+        SurfaceFrame {
+            view_proj: Mat4::IDENTITY,
+            model: Mat4::IDENTITY,
+            light: Vec3::new(0.5, 0.5, 0.5).normalize(),
+            light_color: Vec3::ONE,
+            ambient: Vec3::splat(0.15),
+            albedo: Vec3::new(0.85, 0.72, 0.55),
+            corrected: true,
+        }
+    }
+}
+
+/// The `SurfaceUniform` of the surface WGSL, as it is in the uniform buffer (240 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct SurfaceUniform {
+    /// World → clip, column-major.
+    pub view_proj: [[f32; 4]; 4],
+    /// Mesh space → world, column-major.
+    pub model: [[f32; 4]; 4],
+    /// `xyz`: unit direction toward the light in mesh space; `w`: 1 corrected, 0 flat.
+    pub light: [f32; 4],
+    /// Light RGB.
+    pub light_color: [f32; 4],
+    /// Ambient RGB.
+    pub ambient: [f32; 4],
+    /// Albedo RGB.
+    pub albedo: [f32; 4],
+    /// One tile of the bump map in its world units, `(W·sx, H·sy)`.
+    pub tile: [f32; 2],
+    /// The bump map's texel size.
+    pub texel_size: [f32; 2],
+    /// Bump height = `height_offset + height_scale × sample`.
+    pub height_scale: f32,
+    /// See `height_scale`.
+    pub height_offset: f32,
+    /// Heightfield width and height.
+    pub size: [u32; 2],
+    /// How the horizon texture is stored.
+    pub encoding: HorizonEncoding,
+}
+
+/// How the surface's pipeline is built.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceOptions {
+    /// The colour target (format, blending).
+    pub color: wgpu::ColorTargetState,
+    /// The depth attachment's format, if the pass has one (tested with `Less`, written).
+    pub depth_format: Option<wgpu::TextureFormat>,
+    /// A second colour target at location 1 receiving `(1 lit / 0 shadowed, 1, 0, 1)`.
+    pub visibility_format: Option<wgpu::TextureFormat>,
+    /// Back faces culled (closed meshes) or drawn.
+    pub cull_mode: Option<wgpu::Face>,
+    /// The bind group index of the surface's group.
+    pub group: u32,
+}
+
+impl SurfaceOptions {
+    /// Draw into an unblended `color_format` target, no depth, back faces culled, group 0.
+    pub fn new(color_format: wgpu::TextureFormat) -> SurfaceOptions {
+        SurfaceOptions {
+            color: wgpu::ColorTargetState { format: color_format, blend: None, write_mask: wgpu::ColorWrites::ALL },
+            depth_format: None,
+            visibility_format: None,
+            cull_mode: Some(wgpu::Face::Back),
+            group: 0,
+        }
+    }
+}
+
+/// A bump map on a curved mesh with seed 000's curvature-corrected horizon shadows.
+///
+/// Built from a `Curvature` asset (the mesh with κ1, κ2, the principal directions and the
+/// texture frame `P_u`, `P_v` per vertex) and a `Horizon` asset (the bump map's horizons, and its
+/// heightfield). Per pixel the light is taken into the seed's frame `(P_u, P_v, N/|N|^½)`,
+/// eq. (1) gives the curvature along it from both principal directions, and eq. (2)–(3) lower
+/// the horizon before the lit test. The mesh's UVs tile the bump map (`Repeat`).
+///
+/// ```no_run
+/// # fn frame(device: &wgpu::Device, queue: &wgpu::Queue, pass: &mut wgpu::RenderPass<'_>, view_proj: hikage_runtime::glam::Mat4) -> Result<(), hikage_runtime::RuntimeError> {
+/// use hikage_runtime::horizon::{SurfaceFrame, SurfaceOptions, SurfaceShadows};
+/// use hikage_runtime::{CpuBundle, GpuBundle, glam::Vec3, wgpu};
+///
+/// let cpu = CpuBundle::read_ids("bundle".as_ref(), &["sphere", "cylinders.horizon"])?;
+/// let gpu = GpuBundle::upload(device, queue, &cpu)?;
+/// let options = SurfaceOptions::new(wgpu::TextureFormat::Rgba8UnormSrgb);
+/// let sphere = SurfaceShadows::new(device, queue, &gpu, "sphere", "cylinders.horizon", &options)?;
+/// sphere.update(queue, &SurfaceFrame { view_proj, light: Vec3::new(-0.8, 0.25, 0.45).normalize(), ..SurfaceFrame::default() });
+/// sphere.draw(pass);
+/// # Ok(()) }
+/// ```
+#[derive(Debug)]
+pub struct SurfaceShadows {
+    wgsl: String,
+    layout: wgpu::BindGroupLayout,
+    bind_group: wgpu::BindGroup,
+    uniform: wgpu::Buffer,
+    pipeline: wgpu::RenderPipeline,
+    group: u32,
+    statics: SurfaceUniform,
+    buffer: wgpu::Buffer,
+    desc: MeshDesc,
+}
+
+impl SurfaceShadows {
+    /// Builds the surface of mesh `curvature` (a `Curvature` asset) carrying the bump map of
+    /// `horizon` (a `Horizon` asset and its heightfield).
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        gpu: &GpuBundle,
+        curvature: &str,
+        horizon: &str,
+        options: &SurfaceOptions,
+    ) -> Result<SurfaceShadows, RuntimeError> {
+        let mesh = gpu.mesh(curvature)?;
+        check_streams(mesh)?;
+        let map = gpu.texture(horizon)?;
+        let settings = horizon_settings(map)?;
+        let heights = gpu.texture(&settings.heightfield)?;
+        let hf = heightfield_settings(heights)?;
+        let (sx, sy) = settings.texel_size;
+        let statics = SurfaceUniform {
+            tile: [heights.desc.width as f32 * sx, heights.desc.height as f32 * sy],
+            texel_size: [sx, sy],
+            height_scale: hf.height_scale,
+            height_offset: hf.height_offset,
+            size: [heights.desc.width, heights.desc.height],
+            encoding: HorizonEncoding::new(map.desc.format, settings),
+            ..bytemuck::Zeroable::zeroed()
+        };
+        let filterable = horizon_filterable(device, map.desc.format);
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("hikage surface"),
+            entries: &[
+                gpu::uniform_entry(0),
+                gpu::texture_entry(1, wgpu::TextureViewDimension::D3, filterable),
+                gpu::entry(
+                    2,
+                    wgpu::BindingType::Sampler(if filterable {
+                        wgpu::SamplerBindingType::Filtering
+                    } else {
+                        wgpu::SamplerBindingType::NonFiltering
+                    }),
+                ),
+                gpu::texture_entry(3, wgpu::TextureViewDimension::D2, false),
+            ],
+        });
+        let uniform = gpu::uniform_buffer(device, queue, "hikage surface", &statics);
+        let sampler = horizon_sampler(device, hikage_bundle::EdgeMode::Wrap, filterable);
+        let bind_group = gpu::checked(device, horizon, || {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("hikage surface"),
+                layout: &layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&map.view) },
+                    wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&sampler) },
+                    wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&heights.view) },
+                ],
+            })
+        })?;
+        let wgsl = gpu::at_group(&format!("{HORIZON_WGSL}\n{SURFACE_WGSL}"), options.group);
+        let attributes: Vec<[wgpu::VertexAttribute; 1]> = STREAMS
+            .iter()
+            .enumerate()
+            .map(|(location, &(_, c))| {
+                [wgpu::VertexAttribute { format: float_format(c), offset: 0, shader_location: location as u32 }]
+            })
+            .collect();
+        let buffers: Vec<Option<wgpu::VertexBufferLayout>> = STREAMS
+            .iter()
+            .zip(&attributes)
+            .map(|(&(_, c), a)| {
+                Some(wgpu::VertexBufferLayout {
+                    array_stride: 4 * c as u64,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: a,
+                })
+            })
+            .collect();
+        let pipeline = gpu::checked(device, curvature, || {
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("hikage surface"),
+                source: wgpu::ShaderSource::Wgsl(wgsl.as_str().into()),
+            });
+            let pipeline_layout = gpu::pipeline_layout(device, options.group, &layout);
+            let fs = if options.visibility_format.is_some() { "surface_fs_visibility" } else { "surface_fs" };
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("hikage surface"),
+                layout: Some(&pipeline_layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("surface_vs"),
+                    compilation_options: Default::default(),
+                    buffers: &buffers,
+                },
+                primitive: wgpu::PrimitiveState { cull_mode: options.cull_mode, ..Default::default() },
+                depth_stencil: options.depth_format.map(gpu::depth_state),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(fs),
+                    compilation_options: Default::default(),
+                    targets: &gpu::targets(options.color.clone(), options.visibility_format),
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        })?;
+        Ok(SurfaceShadows {
+            wgsl,
+            layout,
+            bind_group,
+            uniform,
+            pipeline,
+            group: options.group,
+            statics,
+            buffer: mesh.buffer.clone(),
+            desc: mesh.desc.clone(),
+        })
+    }
+
+    /// The surface's WGSL with its bindings at the chosen group, for a game's own shaders:
+    /// `surface_lit(...)`, `surface_bumped_normal(...)` and the horizon functions.
+    pub fn wgsl(&self) -> &str {
+        &self.wgsl
+    }
+
+    /// The layout of the surface's bind group.
+    pub fn layout(&self) -> &wgpu::BindGroupLayout {
+        &self.layout
+    }
+
+    /// The surface's bind group (uniform, horizon map and sampler, heights).
+    pub fn bind_group(&self) -> &wgpu::BindGroup {
+        &self.bind_group
+    }
+
+    /// The uniform for `frame`: the light taken into mesh space, with the bump map's constants.
+    pub fn uniform(&self, frame: &SurfaceFrame) -> SurfaceUniform {
+        let light = frame.model.inverse().transform_vector3(frame.light).normalize_or(Vec3::Z);
+        SurfaceUniform {
+            view_proj: frame.view_proj.to_cols_array_2d(),
+            model: frame.model.to_cols_array_2d(),
+            light: light.extend(if frame.corrected { 1.0 } else { 0.0 }).to_array(),
+            light_color: frame.light_color.extend(0.0).to_array(),
+            ambient: frame.ambient.extend(0.0).to_array(),
+            albedo: frame.albedo.extend(1.0).to_array(),
+            ..self.statics
+        }
+    }
+
+    /// Writes the uniform for `frame`; the next submitted draw uses it.
+    pub fn update(&self, queue: &wgpu::Queue, frame: &SurfaceFrame) {
+        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.uniform(frame)));
+    }
+
+    /// Draws the mesh into `pass`, whose targets must match the options it was built with.
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(self.group, &self.bind_group, &[]);
+        for (slot, (name, _)) in STREAMS.iter().enumerate() {
+            let a = self.desc.attribute(name).expect("checked when the surface was built");
+            pass.set_vertex_buffer(
+                slot as u32,
+                self.buffer.slice(a.offset..a.offset + a.stride as u64 * a.count as u64),
+            );
+        }
+        let ix = self.desc.indices.as_ref().expect("checked when the surface was built");
+        let format = match ix.component {
+            ComponentType::U16 => wgpu::IndexFormat::Uint16,
+            _ => wgpu::IndexFormat::Uint32,
+        };
+        let bytes = ix.component.bytes() as u64;
+        pass.set_index_buffer(self.buffer.slice(ix.offset..ix.offset + bytes * ix.count as u64), format);
+        pass.draw_indexed(0..ix.count, 0, 0..1);
+    }
+}
+
+fn float_format(components: u8) -> wgpu::VertexFormat {
+    match components {
+        1 => wgpu::VertexFormat::Float32,
+        2 => wgpu::VertexFormat::Float32x2,
+        3 => wgpu::VertexFormat::Float32x3,
+        _ => wgpu::VertexFormat::Float32x4,
+    }
+}
+
+/// Every stream the surface reads is present, F32, tightly packed, with the expected
+/// components, and the mesh has U16 or U32 indices.
+fn check_streams(mesh: &GpuMesh) -> Result<(), RuntimeError> {
+    let bad = |message: String| RuntimeError::Asset { asset: mesh.asset.id.clone(), message };
+    for (name, c) in STREAMS {
+        let a = mesh.desc.attribute(name).ok_or_else(|| {
+            bad(format!(
+                "no `{name}` stream: a surface needs a curvature mesh of bundle format 1.3 or later (re-bake it)"
+            ))
+        })?;
+        if a.component != ComponentType::F32 || a.components != c || a.stride != 4 * c as u32 {
+            return Err(bad(format!("stream `{name}` must be {c} tightly packed F32 values")));
+        }
+    }
+    match &mesh.desc.indices {
+        Some(ix) if matches!(ix.component, ComponentType::U16 | ComponentType::U32) => Ok(()),
+        _ => Err(bad("a surface needs U16 or U32 triangle indices".into())),
+    }
+}
+
+/// The CPU reference of [`SurfaceShadows`]' lit test: the same math per pixel on the same
+/// maps, for tests and for tools that want the shadow without a device.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceReference {
+    map: HorizonMap,
+    heights: Vec<f32>,
+    size: (usize, usize),
+    statics: SurfaceUniform,
+}
+
+impl SurfaceReference {
+    /// The reference for the bump map of `horizon` in `cpu` (which must hold its heightfield
+    /// too); `filtered` as [`super::horizon_filterable`] says for the device compared with.
+    pub fn new(cpu: &CpuBundle, horizon: &str, filtered: bool) -> Result<SurfaceReference, RuntimeError> {
+        let missing = |id: &str| RuntimeError::Asset { asset: id.to_string(), message: "not read".into() };
+        let map_asset = cpu.asset(horizon).ok_or_else(|| missing(horizon))?;
+        let settings = map_asset.asset.settings.horizon().ok_or_else(|| missing(horizon))?;
+        let texture = map_asset.texture().ok_or_else(|| missing(horizon))?;
+        let heights_asset = cpu.asset(&settings.heightfield).ok_or_else(|| missing(&settings.heightfield))?;
+        let hf = heights_asset.asset.settings.heightfield().ok_or_else(|| missing(&settings.heightfield))?;
+        let heights = heights_asset.texture().ok_or_else(|| missing(&settings.heightfield))?;
+        let map = HorizonMap::new(texture, settings, filtered).ok_or_else(|| missing(horizon))?;
+        let (w, h) = (heights.desc.width, heights.desc.height);
+        let (sx, sy) = settings.texel_size;
+        let statics = SurfaceUniform {
+            tile: [w as f32 * sx, h as f32 * sy],
+            texel_size: [sx, sy],
+            height_scale: hf.height_scale,
+            height_offset: hf.height_offset,
+            size: [w, h],
+            ..bytemuck::Zeroable::zeroed()
+        };
+        Ok(SurfaceReference { map, heights: heights.to_f32(0), size: (w as usize, h as usize), statics })
+    }
+
+    /// `surface_lit` of the WGSL: is the point lit by `light` (mesh space, unit)? The other
+    /// arguments are the Curvature asset's streams interpolated at the point.
+    #[allow(clippy::too_many_arguments)]
+    pub fn lit(
+        &self,
+        light: Vec3,
+        corrected: bool,
+        uv: Vec2,
+        normal: Vec3,
+        k: Vec2,
+        d1: Vec2,
+        d2: Vec2,
+        pu: Vec3,
+        pv: Vec3,
+    ) -> bool {
+        let tile = Vec2::from(self.statics.tile);
+        let s = horizon_surface_light(light, pu, pv, normal, k.x, k.y, d1, d2, tile);
+        let f = uv - uv.floor();
+        let (w, h) = self.size;
+        let (i, j) = (((f.x * w as f32).floor() as usize).min(w - 1), ((f.y * h as f32).floor() as usize).min(h - 1));
+        let height = self.statics.height_offset + self.statics.height_scale * self.heights[j * w + i];
+        horizon_surface_lit(&self.map, uv, s, height, Vec2::from(self.statics.texel_size), corrected)
+    }
+}

@@ -1,0 +1,341 @@
+//! [`TerrainShadows`]: a heightfield drawn as a grid mesh, lit by a sun whose disc sinks
+//! behind the baked horizons, with the baked ambient occlusion as sky visibility.
+
+use glam::{Mat4, Vec3};
+use hikage_bundle::{HeightfieldSettings, HorizonSettings};
+
+use super::{HORIZON_WGSL, HorizonEncoding, horizon_filterable, horizon_sampler};
+use crate::error::RuntimeError;
+use crate::gpu;
+use crate::upload::{GpuBundle, GpuTexture};
+
+/// WGSL of the terrain: its uniform, bindings (at `@group(0)`, moved to the chosen group by
+/// [`TerrainShadows::wgsl`]), `terrain_sun_visibility`, `terrain_sky_visibility` and the
+/// vertex and fragment entry points.
+const TERRAIN_WGSL: &str = include_str!("../shaders/terrain.wgsl");
+
+/// A sun: where it is, how bright, and how large it looks.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sun {
+    /// Unit direction toward the sun, world space.
+    pub direction: Vec3,
+    /// Linear RGB irradiance.
+    pub color: Vec3,
+    /// Angular radius in radians: the shadow edge softens over twice this (the real sun's is
+    /// 0.00465, 0.27°); 0 gives hard shadows.
+    pub angular_radius: f32,
+}
+
+impl Default for Sun {
+    fn default() -> Sun {
+        Sun { direction: Vec3::new(0.5, 0.5, 0.5).normalize(), color: Vec3::ONE, angular_radius: 0.00465 }
+    }
+}
+
+/// What changes from frame to frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TerrainFrame {
+    /// World → clip (wgpu: depth 0..1).
+    pub view_proj: Mat4,
+    /// Terrain frame → world. The terrain frame has `x` along +u (columns), `y` up, `z` along +v
+    /// (rows), in the heightfield's world units, texel `(i, j)` centred at `((i + ½)·sx, h,
+    /// (j + ½)·sy)`.
+    pub model: Mat4,
+    /// The sun.
+    pub sun: Sun,
+    /// Linear RGB of the sky's ambient light, scaled by sky visibility (`1 − ao`).
+    pub sky_color: Vec3,
+    /// Linear RGB albedo of the ground.
+    pub albedo: Vec3,
+}
+
+impl Default for TerrainFrame {
+    fn default() -> TerrainFrame {
+        TerrainFrame {
+            view_proj: Mat4::IDENTITY,
+            model: Mat4::IDENTITY,
+            sun: Sun::default(),
+            sky_color: Vec3::splat(0.25),
+            albedo: Vec3::splat(0.6),
+        }
+    }
+}
+
+/// The `TerrainUniform` of the terrain WGSL, as it is in the uniform buffer (240 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct TerrainUniform {
+    /// World → clip, column-major.
+    pub view_proj: [[f32; 4]; 4],
+    /// Terrain frame → world, column-major.
+    pub model: [[f32; 4]; 4],
+    /// `xyz`: unit direction toward the sun in the terrain frame; `w`: its angular radius.
+    pub sun: [f32; 4],
+    /// Sun RGB.
+    pub sun_color: [f32; 4],
+    /// Sky RGB.
+    pub sky_color: [f32; 4],
+    /// Albedo RGB.
+    pub albedo: [f32; 4],
+    /// World units per texel along `u` and `v`.
+    pub texel_size: [f32; 2],
+    /// World height = `height_offset + height_scale × sample`.
+    pub height_scale: f32,
+    /// See `height_scale`.
+    pub height_offset: f32,
+    /// Heightfield width and height.
+    pub size: [u32; 2],
+    /// 1 when an ambient-occlusion map is bound.
+    pub has_ao: u32,
+    /// Padding.
+    pub _pad: u32,
+    /// How the horizon texture is stored.
+    pub encoding: HorizonEncoding,
+}
+
+/// How the terrain's pipeline is built.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TerrainOptions {
+    /// The colour target the terrain is drawn into (format, blending).
+    pub color: wgpu::ColorTargetState,
+    /// The depth attachment's format, if the pass has one (tested with `Less`, written).
+    pub depth_format: Option<wgpu::TextureFormat>,
+    /// A second colour target at location 1 receiving `(sun visibility, 1, sky visibility, 1)`
+    /// per pixel, for shadow masks, debugging and tests.
+    pub visibility_format: Option<wgpu::TextureFormat>,
+    /// The bind group index of the terrain's group: the game's own groups keep the others.
+    pub group: u32,
+}
+
+impl TerrainOptions {
+    /// Draw into an unblended `color_format` target, no depth, group 0.
+    pub fn new(color_format: wgpu::TextureFormat) -> TerrainOptions {
+        TerrainOptions {
+            color: wgpu::ColorTargetState { format: color_format, blend: None, write_mask: wgpu::ColorWrites::ALL },
+            depth_format: None,
+            visibility_format: None,
+            group: 0,
+        }
+    }
+}
+
+/// A heightfield with horizon shadows from a sun and ambient occlusion from the sky
+/// (seed 000's maps on terrain, where the curvature is the geometry's own: κ = 0).
+///
+/// Created from a `horizon` asset (its heightfield comes with it) and optionally the `ao` asset
+/// baked beside it. The sun's azimuth is taken in texel space from its direction in the terrain
+/// frame, so anisotropic texels (80 m × 60 m) shadow along the right azimuth; a clamped bake is
+/// sampled with `ClampToEdge`, a wrapped one with `Repeat`.
+///
+/// ```no_run
+/// # fn frame(device: &wgpu::Device, queue: &wgpu::Queue, target: &wgpu::TextureView, depth: &wgpu::TextureView, view_proj: hikage_runtime::glam::Mat4) -> Result<(), hikage_runtime::RuntimeError> {
+/// use hikage_runtime::horizon::{Sun, TerrainFrame, TerrainOptions, TerrainShadows};
+/// use hikage_runtime::{CpuBundle, GpuBundle, glam::Vec3, wgpu};
+///
+/// let cpu = CpuBundle::read_prefix("bundle".as_ref(), "terrain.")?;
+/// let gpu = GpuBundle::upload(device, queue, &cpu)?;
+/// let options = TerrainOptions {
+///     depth_format: Some(wgpu::TextureFormat::Depth32Float),
+///     ..TerrainOptions::new(wgpu::TextureFormat::Rgba8UnormSrgb)
+/// };
+/// let terrain = TerrainShadows::new(device, queue, &gpu, "terrain.horizon", Some("terrain.ao"), &options)?;
+///
+/// // Every frame:
+/// let sun = Sun { direction: Vec3::new(-0.6, 0.3, 0.2).normalize(), ..Sun::default() };
+/// terrain.update(queue, &TerrainFrame { view_proj, sun, ..TerrainFrame::default() });
+/// let mut encoder = device.create_command_encoder(&Default::default());
+/// {
+///     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+///         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+///             view: target,
+///             depth_slice: None,
+///             resolve_target: None,
+///             ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+///         })],
+///         depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+///             view: depth,
+///             depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+///             stencil_ops: None,
+///         }),
+///         ..Default::default()
+///     });
+///     terrain.draw(&mut pass);
+/// }
+/// queue.submit([encoder.finish()]);
+/// # Ok(()) }
+/// ```
+#[derive(Debug)]
+pub struct TerrainShadows {
+    wgsl: String,
+    layout: wgpu::BindGroupLayout,
+    bind_group: wgpu::BindGroup,
+    uniform: wgpu::Buffer,
+    pipeline: wgpu::RenderPipeline,
+    group: u32,
+    statics: TerrainUniform,
+    vertices: u32,
+}
+
+impl TerrainShadows {
+    /// Builds the terrain of `horizon` (a `Horizon` asset of `gpu`, with its heightfield) and
+    /// `ao` (an `AmbientOcclusion` asset, or `None` for an open sky).
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        gpu: &GpuBundle,
+        horizon: &str,
+        ao: Option<&str>,
+        options: &TerrainOptions,
+    ) -> Result<TerrainShadows, RuntimeError> {
+        let map = gpu.texture(horizon)?;
+        let settings = horizon_settings(map)?;
+        let heights = gpu.texture(&settings.heightfield)?;
+        let hf = heightfield_settings(heights)?;
+        if heights.desc.width < 2 || heights.desc.height < 2 {
+            return Err(RuntimeError::Asset {
+                asset: settings.heightfield.clone(),
+                message: "a terrain needs at least 2×2 texels".into(),
+            });
+        }
+        let ao = ao.map(|id| gpu.texture(id)).transpose()?;
+        let filterable = horizon_filterable(device, map.desc.format);
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("hikage terrain"),
+            entries: &[
+                gpu::uniform_entry(0),
+                gpu::texture_entry(1, wgpu::TextureViewDimension::D3, filterable),
+                gpu::entry(
+                    2,
+                    wgpu::BindingType::Sampler(if filterable {
+                        wgpu::SamplerBindingType::Filtering
+                    } else {
+                        wgpu::SamplerBindingType::NonFiltering
+                    }),
+                ),
+                gpu::texture_entry(3, wgpu::TextureViewDimension::D2, false),
+                gpu::texture_entry(4, wgpu::TextureViewDimension::D2, false),
+            ],
+        });
+        let statics = TerrainUniform {
+            texel_size: [settings.texel_size.0, settings.texel_size.1],
+            height_scale: hf.height_scale,
+            height_offset: hf.height_offset,
+            size: [heights.desc.width, heights.desc.height],
+            has_ao: u32::from(ao.is_some()),
+            encoding: HorizonEncoding::new(map.desc.format, settings),
+            ..bytemuck::Zeroable::zeroed()
+        };
+        let uniform = gpu::uniform_buffer(device, queue, "hikage terrain", &statics);
+        let sampler = horizon_sampler(device, settings.edge, filterable);
+        let no_ao = gpu::constant_texture(device, queue, 0.0);
+        let bind_group = gpu::checked(device, horizon, || {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("hikage terrain"),
+                layout: &layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&map.view) },
+                    wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&sampler) },
+                    wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&heights.view) },
+                    wgpu::BindGroupEntry {
+                        binding: 4,
+                        resource: wgpu::BindingResource::TextureView(ao.map_or(&no_ao, |t| &t.view)),
+                    },
+                ],
+            })
+        })?;
+        let wgsl = gpu::at_group(&format!("{HORIZON_WGSL}\n{TERRAIN_WGSL}"), options.group);
+        let pipeline = gpu::checked(device, horizon, || {
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("hikage terrain"),
+                source: wgpu::ShaderSource::Wgsl(wgsl.as_str().into()),
+            });
+            let pipeline_layout = gpu::pipeline_layout(device, options.group, &layout);
+            let fs = if options.visibility_format.is_some() { "terrain_fs_visibility" } else { "terrain_fs" };
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("hikage terrain"),
+                layout: Some(&pipeline_layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("terrain_vs"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+                depth_stencil: options.depth_format.map(gpu::depth_state),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(fs),
+                    compilation_options: Default::default(),
+                    targets: &gpu::targets(options.color.clone(), options.visibility_format),
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        })?;
+        let vertices = 6 * (heights.desc.width - 1) * (heights.desc.height - 1);
+        Ok(TerrainShadows { wgsl, layout, bind_group, uniform, pipeline, group: options.group, statics, vertices })
+    }
+
+    /// The terrain's WGSL with its bindings at the chosen group, for a game's own shaders:
+    /// `terrain_sun_visibility(uv)`, `terrain_sky_visibility(uv)`, `terrain_position(texel)`,
+    /// `terrain_normal(texel)` and the horizon functions.
+    pub fn wgsl(&self) -> &str {
+        &self.wgsl
+    }
+
+    /// The layout of the terrain's bind group.
+    pub fn layout(&self) -> &wgpu::BindGroupLayout {
+        &self.layout
+    }
+
+    /// The terrain's bind group (uniform, horizon map and sampler, heights, occlusion).
+    pub fn bind_group(&self) -> &wgpu::BindGroup {
+        &self.bind_group
+    }
+
+    /// The uniform for `frame`: the sun taken into the terrain frame, with the terrain's own
+    /// constants.
+    pub fn uniform(&self, frame: &TerrainFrame) -> TerrainUniform {
+        let to_terrain = frame.model.inverse();
+        let sun = to_terrain.transform_vector3(frame.sun.direction).normalize_or(Vec3::Y);
+        TerrainUniform {
+            view_proj: frame.view_proj.to_cols_array_2d(),
+            model: frame.model.to_cols_array_2d(),
+            sun: sun.extend(frame.sun.angular_radius).to_array(),
+            sun_color: frame.sun.color.extend(0.0).to_array(),
+            sky_color: frame.sky_color.extend(0.0).to_array(),
+            albedo: frame.albedo.extend(1.0).to_array(),
+            ..self.statics
+        }
+    }
+
+    /// Writes the uniform for `frame`; the next submitted draw uses it.
+    pub fn update(&self, queue: &wgpu::Queue, frame: &TerrainFrame) {
+        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.uniform(frame)));
+    }
+
+    /// Draws the terrain into `pass`, whose targets must match the options it was built with.
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(self.group, &self.bind_group, &[]);
+        pass.draw(0..self.vertices, 0..1);
+    }
+}
+
+/// The horizon settings of `map`, or an error saying it is not a horizon asset.
+pub(super) fn horizon_settings(map: &GpuTexture) -> Result<&HorizonSettings, RuntimeError> {
+    map.asset.settings.horizon().ok_or_else(|| RuntimeError::Asset {
+        asset: map.asset.id.clone(),
+        message: format!("expected a horizon asset, found a {}", map.asset.kind.name()),
+    })
+}
+
+/// The heightfield settings of `heights`, or an error saying it is not a heightfield.
+pub(super) fn heightfield_settings(heights: &GpuTexture) -> Result<&HeightfieldSettings, RuntimeError> {
+    heights.asset.settings.heightfield().ok_or_else(|| RuntimeError::Asset {
+        asset: heights.asset.id.clone(),
+        message: format!("expected a heightfield asset, found a {}", heights.asset.kind.name()),
+    })
+}
