@@ -237,7 +237,8 @@ fn unknown_major_version_is_refused_and_never_overwritten() {
     let out = dir.run_expecting(&["validate", "bundle"], 1);
     let current = hikage_bundle::FormatVersion::CURRENT;
     assert!(
-        stderr(&out).contains(&format!("format 9.{}", current.minor)) && stderr(&out).contains(&format!("format {current}")),
+        stderr(&out).contains(&format!("format 9.{}", current.minor))
+            && stderr(&out).contains(&format!("format {current}")),
         "{}",
         stderr(&out)
     );

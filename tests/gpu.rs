@@ -238,3 +238,37 @@ fn hostile_bundles_give_errors_not_panics() {
         other => panic!("depth {depth}, device limit {max3d}: unexpected {other:?}"),
     }
 }
+
+/// A game loads one asset (and what it names) without reading or hashing the rest: a bundle
+/// whose other payloads are corrupt still gives the terrain, and reading everything fails.
+#[test]
+fn loading_one_asset_reads_only_it_and_what_it_names() {
+    let dir = Dir::new("load_partial");
+    dir.copy_data();
+    dir.write(
+        "pipeline.ron",
+        r#"(output: "bundle", jobs: [
+            Horizon(id: "terrain", input: "data/terrain.png", texel_size: (80, 60), height_scale: 1500, directions: 8, edge: Clamp, ao: true),
+            Heightfield(id: "other", input: "data/cylinders.png"),
+        ])"#,
+    );
+    dir.run(&["bake"]);
+    let bundle = hikage_bundle::Bundle::open(&dir.path("bundle")).unwrap();
+    let other = bundle.asset("other").unwrap().file.clone();
+    let path = dir.path(&format!("bundle/{other}"));
+    let mut bytes = std::fs::read(&path).unwrap();
+    bytes[40] ^= 0x55;
+    std::fs::write(&path, &bytes).unwrap();
+
+    let err = CpuBundle::read(&dir.path("bundle")).unwrap_err().to_string();
+    assert!(err.contains("other") && err.contains("BLAKE3"), "{err}");
+    let horizon = CpuBundle::read_ids(&dir.path("bundle"), &["terrain.horizon"]).unwrap();
+    let ids: Vec<&str> = horizon.assets.iter().map(|a| a.asset.id.as_str()).collect();
+    assert_eq!(ids, ["terrain.height", "terrain.horizon"], "the horizon and the heightfield it names");
+    let job = CpuBundle::read_prefix(&dir.path("bundle"), "terrain.").unwrap();
+    let ids: Vec<&str> = job.assets.iter().map(|a| a.asset.id.as_str()).collect();
+    assert_eq!(ids, ["terrain.ao", "terrain.height", "terrain.horizon"]);
+    let err = CpuBundle::read_ids(&dir.path("bundle"), &["terrain.horizn"]).unwrap_err().to_string();
+    assert!(err.contains("terrain.horizn") && err.contains("terrain.horizon"), "names what exists: {err}");
+    assert!(CpuBundle::read_prefix(&dir.path("bundle"), "nothing.").is_err());
+}

@@ -1,22 +1,26 @@
-//! Hair strips and deep opacity maps on the GPU against their CPU reference.
+//! Hair strips and deep opacity maps on the GPU, through `HairRenderer`, against their CPU
+//! reference: the light passes (depth map and layers), and the camera pass — Kajiya-Kay
+//! shading, the maps' lookup, the order-independent blend and the opaque draw.
 
-use hikage_runtime::wgpu;
+use hikage_bake::strands::Strands;
+use hikage_bake::strands::strips::{StripSets, build};
+use hikage_bundle::{BundleWriter, Settings, StrandsSettings, WriteMode};
+use hikage_runtime::glam::Vec3;
+use hikage_runtime::glam::camera::rh::proj::directx;
+use hikage_runtime::glam::camera::rh::view::look_at_mat4;
+use hikage_runtime::hair::reference::{StripArrays, accumulate_cpu};
+use hikage_runtime::hair::{HairFrame, HairOptions, HairRenderer, HairSet};
+use hikage_runtime::{CpuBundle, GpuBundle, wgpu};
+use hikage_scenes::hair_scene::{
+    Composite, HairBlend, camera_reference, read_opacity_maps, render_frame, srgb_to_linear,
+};
+use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT};
 
-use crate::util::gpu;
+use crate::util::{Dir, gpu};
 
-/// Deep opacity maps of a few strands on the GPU against the CPU reference of the same
-/// accumulation: the nearest depth and all four cumulative layers per texel, for both sets.
-#[test]
-fn hair_opacity_maps_match_the_cpu_accumulation() {
-    use hikage_bake::strands::Strands;
-    use hikage_bake::strands::strips::{StripSets, build};
-    use hikage_runtime::glam::Vec3;
-    use hikage_runtime::hair::{HairLight, HairSet, StripArrays, accumulate_cpu};
-    use hikage_scenes::hair_scene::{GpuStrips, render_opacity_maps};
-
-    let Some(g) = gpu("hair_opacity_maps_match_the_cpu_accumulation") else { return };
-    // Three straight strands along x at different heights, overlapping seen from above, a
-    // fourth along z crossing them, and a curved one.
+/// Three straight strands along x at different heights, overlapping seen from above, a fourth
+/// along z crossing them, and a curved one; as a bundle holding their strips.
+fn strands_bundle(name: &str) -> (Dir, StripArrays) {
     let mut points = Vec::new();
     let mut segments = Vec::new();
     for (k, (y, z)) in [(0.0f32, 0.0f32), (0.37, 0.113), (0.81, -0.071)].iter().enumerate() {
@@ -39,29 +43,48 @@ fn hair_opacity_maps_match_the_cpu_accumulation() {
         points,
         thickness: None,
         transparency: None,
-        color: None,
+        color: Some((0..32).map(|i| [0.2 + 0.02 * i as f32, 0.4, 0.7 - 0.015 * i as f32]).collect()),
         default_thickness: 0.05,
         default_transparency: 0.6,
         default_color: [0.5; 3],
     };
     let sets = StripSets { shading: (0.05, 0.4), opacity: (0.23, 0.09), taper: 0.0 };
     let (mesh, lo, hi) = build(&s, &sets);
-    let arrays = StripArrays {
-        position: mesh.read_f32("position").unwrap().chunks_exact(3).map(Vec3::from_slice).collect(),
-        side: mesh.read_f32("side").unwrap(),
-        tangent: mesh.read_f32("tangent").unwrap().chunks_exact(3).map(Vec3::from_slice).collect(),
-        width: mesh.read_f32("width").unwrap().chunks_exact(2).map(|c| [c[0], c[1]]).collect(),
-        opacity: mesh.read_f32("opacity").unwrap().chunks_exact(2).map(|c| [c[0], c[1]]).collect(),
-        indices: mesh.read_indices().unwrap(),
+    let settings = StrandsSettings {
+        strands: 5,
+        points: 32,
+        shading: sets.shading,
+        opacity: sets.opacity,
+        taper: 0.0,
+        auto_resolution: None,
+        bounds_min: lo,
+        bounds_max: hi,
     };
-    let buffer =
-        g.buffer(mesh.bytes.len() as u64, wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::INDEX, Some(&mesh.bytes));
-    let strips = GpuStrips { buffer: &buffer, desc: &mesh.desc };
-    let light = HairLight::for_bounds(Vec3::from(lo), Vec3::from(hi), Vec3::new(0.15, 1.0, 0.1));
+    let dir = Dir::new(name);
+    let mut writer = BundleWriter::open(&dir.path("bundle"), WriteMode::Replace).unwrap();
+    writer.put_mesh("s.strips", Settings::Strands(settings), "test", &mesh).unwrap();
+    writer.commit().unwrap();
+    (dir, StripArrays::from_mesh(&mesh).unwrap())
+}
+
+/// Deep opacity maps of a few strands on the GPU against the CPU reference of the same
+/// accumulation: the nearest depth and all four cumulative layers per texel, for both sets.
+#[test]
+fn hair_opacity_maps_match_the_cpu_accumulation() {
+    let (dir, arrays) = strands_bundle("gpu_hair_maps");
+    let cpu = CpuBundle::read(&dir.path("bundle")).unwrap();
+    let Some(g) = gpu("hair_opacity_maps_match_the_cpu_accumulation") else { return };
+    let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
     let resolution = 96;
+    let options = HairOptions { resolution, ..HairOptions::new(COLOR_FORMAT, (8, 8)) };
+    let renderer = HairRenderer::new(&g.device, &g.queue, &gb, "s.strips", &options).unwrap();
+    let light = renderer.light(Vec3::new(0.15, 1.0, 0.1));
     for set in [HairSet::Shading, HairSet::Opacity] {
-        let maps = render_opacity_maps(&g, &strips, &light, set, resolution).unwrap();
-        let (gpu_depth, gpu_layers) = maps.read(&g);
+        renderer.update(&g.queue, &HairFrame { set, ..HairFrame::new(Default::default(), Vec3::Z, light) });
+        let mut encoder = g.device.create_command_encoder(&Default::default());
+        renderer.render_opacity_maps(&mut encoder);
+        g.queue.submit([encoder.finish()]);
+        let (gpu_depth, gpu_layers) = read_opacity_maps(&g, &renderer);
         let (cpu_depth, cpu_layers) = accumulate_cpu(&arrays, &light, set, resolution);
         let n = (resolution * resolution) as usize;
         let (mut covered, mut depth_ok, mut layers_ok) = (0, 0, 0);
@@ -82,5 +105,52 @@ fn hair_opacity_maps_match_the_cpu_accumulation() {
         assert!(depth_ok as f64 >= 0.99 * n as f64 && layers_ok as f64 >= 0.99 * n as f64);
         // Several layers differ somewhere: the strands overlap in depth.
         assert!(cpu_layers.iter().any(|l| l[0] > 0.0 && l[3] > l[0] + 1e-3));
+    }
+}
+
+/// The camera pass against its CPU reference on the same opacity maps (read back): Kajiya-Kay
+/// shading, the maps' lookup and the weighted blended order-independent composite (and the
+/// opaque draw) over black, per pixel.
+#[test]
+fn hair_camera_pass_matches_the_cpu_composite() {
+    let (dir, arrays) = strands_bundle("gpu_hair_camera");
+    let cpu = CpuBundle::read(&dir.path("bundle")).unwrap();
+    let Some(g) = gpu("hair_camera_pass_matches_the_cpu_composite") else { return };
+    let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
+    let size = (128u32, 96u32);
+    let options =
+        HairOptions { resolution: 128, depth_format: Some(DEPTH_FORMAT), ..HairOptions::new(COLOR_FORMAT, size) };
+    let renderer = HairRenderer::new(&g.device, &g.queue, &gb, "s.strips", &options).unwrap();
+    let light = renderer.light(Vec3::new(0.3, 1.0, 0.4));
+    let eye = Vec3::new(0.2, 1.2, 3.0);
+    let camera = directx::perspective(45f32.to_radians(), size.0 as f32 / size.1 as f32, 0.5, 10.0)
+        * look_at_mat4(eye, Vec3::new(0.0, 0.3, 0.0), Vec3::Y);
+    let frame = HairFrame { ambient: Vec3::splat(0.2), specular: 0.5, ..HairFrame::new(camera, eye, light) };
+    renderer.update(&g.queue, &frame);
+    let uniform = renderer.uniform(&frame);
+    for (blend, how) in
+        [(HairBlend::OrderIndependent, Composite::OrderIndependent), (HairBlend::Opaque, Composite::Opaque)]
+    {
+        let image = render_frame(&g, &renderer, None, blend, size, wgpu::Color::BLACK);
+        let maps = read_opacity_maps(&g, &renderer);
+        let reference = camera_reference(&arrays, &uniform, &light, &maps, camera, eye, size, how);
+        let (mut covered, mut close, mut lit) = (0, 0, 0.0f32);
+        for (i, r) in reference.iter().enumerate() {
+            if r[3] <= 0.0 {
+                continue;
+            }
+            covered += 1;
+            let got = [0, 1, 2].map(|k| srgb_to_linear(image[4 * i + k]));
+            // The target is 8-bit: what the CPU gives above 1 is clamped there.
+            close += (0..3).all(|k| (got[k] - r[k].min(1.0)).abs() <= 0.02 + 0.02 * r[k]) as u32;
+            lit += r[0] + r[1] + r[2];
+        }
+        eprintln!(
+            "{blend:?}: {covered} pixels with hair, {:.2}% within 2% of the CPU",
+            100.0 * close as f64 / covered as f64
+        );
+        assert!(covered > 500, "the strands should cover part of the image");
+        assert!(lit / covered as f32 > 0.1, "lit hair");
+        assert!(close as f64 >= 0.97 * covered as f64, "{blend:?}: {close} of {covered}");
     }
 }

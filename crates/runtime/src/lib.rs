@@ -1,17 +1,82 @@
-//! hikage-runtime: loads hikage bundles into wgpu and provides the WGSL that uses them.
+//! hikage-runtime: what a game links to draw with hikage bundles in wgpu.
 //!
 //! Loading is split in two so a game can load while it renders:
-//! - [`CpuBundle::read`] opens a bundle, checks every payload's size and BLAKE3, and decodes
-//!   textures (including zstd) and meshes. It needs no device and can run on a worker thread.
+//! - [`CpuBundle::read`] (or [`CpuBundle::read_ids`], [`CpuBundle::read_prefix`] for one level's
+//!   assets) opens a bundle, checks every payload's size and BLAKE3, and decodes textures
+//!   (including zstd) and meshes. It needs no device and can run on a loader thread.
 //! - [`GpuBundle::upload`] creates the wgpu textures (3D stays 3D, arrays stay arrays, every mip
 //!   level uploaded) and mesh buffers. Anything the device cannot hold becomes a
 //!   [`RuntimeError`], never a wgpu validation panic.
 //!
-//! [`horizon`] holds the WGSL of curvature-corrected horizon shadows and its CPU reference;
-//! [`relief`] the relief-mapping tracers (seed 003), shadows and ambient occlusion, with theirs;
-//! [`shadow_fit`] the per-frame light-projection fit of seed 001 (CPU, glam).
+//! One component per method draws with them. Each is built from a device, a queue, the
+//! [`GpuBundle`] and asset ids; takes its per-frame inputs as a plain struct; records into the
+//! game's render pass or command encoder; and exposes its bind group layout, bind group and WGSL
+//! with the bindings at the group index the game chose, for the game's own shaders:
 //!
-//! The runtime never links the baker: a game needs only this crate and `hikage-bundle`.
+//! - [`horizon::TerrainShadows`]: a heightfield under a sun, horizon shadows and ambient
+//!   occlusion (seed 000 on terrain);
+//! - [`horizon::SurfaceShadows`]: a bump map on a curved mesh with the curvature-corrected
+//!   horizon test (seed 000 §3);
+//! - [`relief::ReliefMaterial`]: relief mapping with depth-map shadows and ambient occlusion on
+//!   any mesh with tangents (seed 003);
+//! - [`hair::HairRenderer`]: deep opacity maps and hair blended at its opacity (seed 004);
+//! - [`shadow_fit`]: the per-frame light projection fitted to what the camera sees (seed 001,
+//!   CPU).
+//!
+//! Every shader has a CPU reference of the same name, which the tests compare with the GPU.
+//! The runtime never links the baker, and leaves wgpu's backends to the game.
+//!
+//! A frame of terrain:
+//!
+//! ```no_run
+//! use hikage_runtime::horizon::{Sun, TerrainFrame, TerrainOptions, TerrainShadows};
+//! use hikage_runtime::{CpuBundle, GpuBundle, glam::{Mat4, Vec3}, wgpu};
+//!
+//! fn frame(device: &wgpu::Device, queue: &wgpu::Queue, view_proj: Mat4) -> Result<(), hikage_runtime::RuntimeError> {
+//!     // Load (a loader thread could do the first line), upload, build the component.
+//!     let cpu = CpuBundle::read_prefix("bundle".as_ref(), "terrain.")?;
+//!     let gpu = GpuBundle::upload(device, queue, &cpu)?;
+//!     let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+//!     let options = TerrainOptions { depth_format: Some(wgpu::TextureFormat::Depth32Float), ..TerrainOptions::new(format) };
+//!     let terrain = TerrainShadows::new(device, queue, &gpu, "terrain.horizon", Some("terrain.ao"), &options)?;
+//!
+//!     // Targets of 640 × 360.
+//!     let size = wgpu::Extent3d { width: 640, height: 360, depth_or_array_layers: 1 };
+//!     let target = |format, usage| {
+//!         device.create_texture(&wgpu::TextureDescriptor {
+//!             label: None, size, mip_level_count: 1, sample_count: 1, dimension: wgpu::TextureDimension::D2,
+//!             format, usage, view_formats: &[],
+//!         })
+//!     };
+//!     let color = target(format, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC);
+//!     let depth = target(wgpu::TextureFormat::Depth32Float, wgpu::TextureUsages::RENDER_ATTACHMENT);
+//!
+//!     // The frame: the sun low in the west, the terrain drawn into the game's pass.
+//!     let sun = Sun { direction: Vec3::new(-0.9, 0.2, 0.1).normalize(), ..Sun::default() };
+//!     terrain.update(queue, &TerrainFrame { view_proj, sun, ..TerrainFrame::default() });
+//!     let (color_view, depth_view) = (color.create_view(&Default::default()), depth.create_view(&Default::default()));
+//!     let mut encoder = device.create_command_encoder(&Default::default());
+//!     {
+//!         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+//!             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+//!                 view: &color_view,
+//!                 depth_slice: None,
+//!                 resolve_target: None,
+//!                 ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+//!             })],
+//!             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+//!                 view: &depth_view,
+//!                 depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+//!                 stencil_ops: None,
+//!             }),
+//!             ..Default::default()
+//!         });
+//!         terrain.draw(&mut pass);
+//!     }
+//!     queue.submit([encoder.finish()]);
+//!     Ok(())
+//! }
+//! ```
 
 mod error;
 mod gpu;
@@ -22,6 +87,7 @@ pub mod relief;
 pub mod shadow_fit;
 mod upload;
 
+pub use bytemuck;
 pub use error::RuntimeError;
 pub use glam;
 pub use load::{CpuAsset, CpuBundle, CpuPayload};
@@ -38,6 +104,12 @@ mod wgsl_tests {
             ("horizon", crate::horizon::HORIZON_WGSL.to_string()),
             ("terrain", format!("{}\n{}", crate::horizon::HORIZON_WGSL, include_str!("shaders/terrain.wgsl"))),
             ("surface", format!("{}\n{}", crate::horizon::HORIZON_WGSL, include_str!("shaders/surface.wgsl"))),
+            ("relief", crate::relief::RELIEF_WGSL.to_string()),
+            ("hair", crate::hair::HAIR_WGSL.to_string()),
+            (
+                "relief material",
+                format!("{}\n{}", crate::relief::RELIEF_WGSL, include_str!("shaders/relief_material.wgsl")),
+            ),
         ];
         for (name, source) in sources {
             for group in [0, 3] {

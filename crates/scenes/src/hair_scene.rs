@@ -1,284 +1,209 @@
-//! The hair scene of seed 004 (demo code): the strips of a `strands` asset drawn into deep
-//! opacity maps from a light, then seen by a camera over a ground quad, and the aliasing figure
-//! of the ground's shadow. Used by the `hair_shadow` example and the GPU tests.
+//! The hair scene of seed 004 (demo code): a ground quad receiving the hair's shadow through
+//! the renderer's `hair_visibility`, whole frames of hair over the ground, read-back of the
+//! opacity maps, and the aliasing figure of the ground's shadow. Used by the `hair_shadow`
+//! example and the GPU tests.
 
-use hikage_bundle::MeshDesc;
-use hikage_runtime::glam::{Mat4, Vec3};
-use hikage_runtime::hair::{HAIR_WGSL, HairLight, HairSet};
+use glam::{Mat4, Vec3};
+use hikage_runtime::hair::HairRenderer;
 
-use crate::headless::{Headless, clear_attachment, depth_attachment, depth_test, plain_target, render_pipeline};
+use crate::headless::{COLOR_FORMAT, DEPTH_FORMAT, Headless, clear_attachment};
 
-/// The `HairFrame` uniform.
-fn frame_bytes(light: &HairLight, camera: Mat4, eye: Vec3, set: HairSet, resolution: u32) -> Vec<u8> {
-    let mut f: Vec<f32> = Vec::new();
-    f.extend(light.view_proj.to_cols_array());
-    f.extend(camera.to_cols_array());
-    f.extend([eye.x, eye.y, eye.z, 1.0]);
-    f.extend([light.to_light.x, light.to_light.y, light.to_light.z, 0.0]);
-    f.extend([0.0, 1.0, light.step, if set == HairSet::Opacity { 1.0 } else { 0.0 }]);
-    f.extend([resolution as f32, 0.0, 0.0, 0.0]);
-    f.iter().flat_map(|v| v.to_le_bytes()).collect()
+const GROUND_WGSL: &str = include_str!("shaders/hair_ground.wgsl");
+
+/// How the camera draws the hair.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HairBlend {
+    /// Blended at its opacity, order-independently (the renderer's default).
+    OrderIndependent,
+    /// Opaque.
+    Opaque,
 }
 
-/// Strip geometry on the GPU: the payload buffer of a `strands` mesh and its layout.
-pub struct GpuStrips<'a> {
-    /// The payload (usage `VERTEX | INDEX`).
-    pub buffer: &'a wgpu::Buffer,
-    /// Its layout.
-    pub desc: &'a MeshDesc,
+/// A ground quad that receives the hair's shadow.
+pub struct Ground {
+    vertices: wgpu::Buffer,
+    uniform: wgpu::Buffer,
+    group: wgpu::BindGroup,
+    color: wgpu::RenderPipeline,
+    visibility: wgpu::RenderPipeline,
 }
 
-const STREAMS: [(&str, wgpu::VertexFormat); 6] = [
-    ("position", wgpu::VertexFormat::Float32x3),
-    ("side", wgpu::VertexFormat::Float32),
-    ("tangent", wgpu::VertexFormat::Float32x3),
-    ("width", wgpu::VertexFormat::Float32x2),
-    ("opacity", wgpu::VertexFormat::Float32x2),
-    ("color", wgpu::VertexFormat::Float32x3),
-];
-
-impl GpuStrips<'_> {
-    fn layouts() -> Vec<wgpu::VertexBufferLayout<'static>> {
-        const ATTRS: [[wgpu::VertexAttribute; 1]; 6] = [
-            [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x3, offset: 0, shader_location: 0 }],
-            [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32, offset: 0, shader_location: 1 }],
-            [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x3, offset: 0, shader_location: 2 }],
-            [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x2, offset: 0, shader_location: 3 }],
-            [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x2, offset: 0, shader_location: 4 }],
-            [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x3, offset: 0, shader_location: 5 }],
-        ];
-        ATTRS
-            .iter()
-            .zip(STREAMS)
-            .map(|(a, (_, f))| wgpu::VertexBufferLayout {
-                array_stride: f.size(),
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: a,
+impl Ground {
+    /// The quad `corners` (counter-clockwise seen from above) for `renderer`, whose receiver
+    /// group must be at index 0.
+    pub fn new(g: &Headless, renderer: &HairRenderer, corners: [Vec3; 4]) -> Ground {
+        let device = &g.device;
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("ground"),
+            source: wgpu::ShaderSource::Wgsl(format!("{}\n{GROUND_WGSL}", renderer.wgsl()).into()),
+        });
+        let own = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("ground"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            }],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("ground"),
+            bind_group_layouts: &[Some(renderer.receiver_layout()), Some(&own)],
+            immediate_size: 0,
+        });
+        let uniform = g.buffer(80, wgpu::BufferUsages::UNIFORM, None);
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("ground"),
+            layout: &own,
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() }],
+        });
+        let quad: Vec<u8> =
+            [0usize, 1, 2, 0, 2, 3].iter().flat_map(|&i| corners[i].to_array()).flat_map(f32::to_le_bytes).collect();
+        let vertices = g.buffer(quad.len() as u64, wgpu::BufferUsages::VERTEX, Some(&quad));
+        let pipeline = |fs: &str, format, depth: Option<wgpu::DepthStencilState>| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(fs),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("ground_vs"),
+                    compilation_options: Default::default(),
+                    buffers: &[Some(wgpu::VertexBufferLayout {
+                        array_stride: 12,
+                        step_mode: wgpu::VertexStepMode::Vertex,
+                        attributes: &wgpu::vertex_attr_array![0 => Float32x3],
+                    })],
+                },
+                primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+                depth_stencil: depth,
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(fs),
+                    compilation_options: Default::default(),
+                    targets: &[crate::headless::plain_target(format)],
+                }),
+                multiview_mask: None,
+                cache: None,
             })
-            .collect()
-    }
-
-    fn bind<'p>(&self, pass: &mut wgpu::RenderPass<'p>) -> Result<u32, String> {
-        for (slot, (name, _)) in STREAMS.iter().enumerate() {
-            let a = self.desc.attribute(name).ok_or_else(|| format!("the strands mesh has no `{name}` stream"))?;
-            pass.set_vertex_buffer(slot as u32, self.buffer.slice(a.offset..));
+        };
+        let mut depth = crate::headless::depth_test();
+        depth.format = DEPTH_FORMAT;
+        Ground {
+            vertices,
+            uniform,
+            group,
+            color: pipeline("ground_fs", COLOR_FORMAT, Some(depth)),
+            visibility: pipeline("ground_fs_visibility", wgpu::TextureFormat::R32Float, None),
         }
-        let ix = self.desc.indices.as_ref().ok_or("the strands mesh has no indices")?;
-        pass.set_index_buffer(self.buffer.slice(ix.offset..ix.offset + 4 * ix.count as u64), wgpu::IndexFormat::Uint32);
-        Ok(ix.count)
+    }
+
+    fn draw(
+        &self,
+        g: &Headless,
+        pass: &mut wgpu::RenderPass<'_>,
+        renderer: &HairRenderer,
+        pipeline: &wgpu::RenderPipeline,
+        view_proj: Mat4,
+    ) {
+        let mut u: Vec<f32> = view_proj.to_cols_array().to_vec();
+        u.extend([0.75, 0.72, 0.66, 1.0]);
+        g.queue.write_buffer(&self.uniform, 0, &u.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>());
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, renderer.receiver_bind_group(), &[]);
+        pass.set_bind_group(1, &self.group, &[]);
+        pass.set_vertex_buffer(0, self.vertices.slice(..));
+        pass.draw(0..6, 0..1);
+    }
+
+    /// The ground's visibility seen by `view_proj` into a `size` image (1 where no hair
+    /// shadows it, 1 off the quad), from the opacity maps the renderer holds.
+    pub fn visibility(&self, g: &Headless, renderer: &HairRenderer, view_proj: Mat4, size: (u32, u32)) -> Vec<f32> {
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
+        let target = g.texture(size, wgpu::TextureFormat::R32Float, usage);
+        let view = target.create_view(&Default::default());
+        let mut encoder = g.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("ground visibility"),
+                color_attachments: &[clear_attachment(&view, wgpu::Color::WHITE)],
+                ..Default::default()
+            });
+            self.draw(g, &mut pass, renderer, &self.visibility, view_proj);
+        }
+        g.queue.submit([encoder.finish()]);
+        g.read_texture(&target).chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()
     }
 }
 
-/// The opacity maps on the GPU: the depth map (R32Float) and the layers (Rgba16Float).
-pub struct OpacityMaps {
-    /// Nearest hair depth per texel, light NDC (1: none).
-    pub depth: wgpu::Texture,
-    /// Cumulative opacity of layers 1–4.
-    pub layers: wgpu::Texture,
-    /// Texels per side.
-    pub resolution: u32,
-}
-
-fn module(gpu: &Headless) -> wgpu::ShaderModule {
-    gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("hair"),
-        source: wgpu::ShaderSource::Wgsl(HAIR_WGSL.into()),
-    })
-}
-
-/// Renders the depth map and the opacity layers of `strips` drawn with `set`.
-pub fn render_opacity_maps(
-    gpu: &Headless,
-    strips: &GpuStrips,
-    light: &HairLight,
-    set: HairSet,
-    resolution: u32,
-) -> Result<OpacityMaps, String> {
-    let module = module(gpu);
-    let layouts: Vec<_> = GpuStrips::layouts().into_iter().map(Some).collect();
-    let usage =
-        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC;
-    let size = (resolution, resolution);
-    let depth = gpu.texture(size, wgpu::TextureFormat::R32Float, usage);
-    let layers = gpu.texture(size, wgpu::TextureFormat::Rgba16Float, usage);
-    let zbuf = gpu.texture(size, wgpu::TextureFormat::Depth32Float, wgpu::TextureUsages::RENDER_ATTACHMENT);
-    let add = wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::One,
-        dst_factor: wgpu::BlendFactor::One,
-        operation: wgpu::BlendOperation::Add,
-    };
-    let device = &gpu.device;
-    let depth_pipe = render_pipeline(
-        device,
-        &module,
-        ("vs_light", "fs_depth"),
-        &layouts,
-        &[plain_target(wgpu::TextureFormat::R32Float)],
-        Some(depth_test()),
-    );
-    let layer_pipe = render_pipeline(
-        device,
-        &module,
-        ("vs_light", "fs_opacity"),
-        &layouts,
-        &[Some(wgpu::ColorTargetState {
-            format: wgpu::TextureFormat::Rgba16Float,
-            blend: Some(wgpu::BlendState { color: add, alpha: add }),
-            write_mask: wgpu::ColorWrites::ALL,
-        })],
-        None,
-    );
-    let frame = frame_bytes(light, Mat4::IDENTITY, Vec3::ZERO, set, resolution);
-    let ubuf = gpu.buffer(frame.len() as u64, wgpu::BufferUsages::UNIFORM, Some(&frame));
-    let dview = depth.create_view(&Default::default());
-    let lview = layers.create_view(&Default::default());
-    let zview = zbuf.create_view(&Default::default());
-    let depth_bind = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &depth_pipe.get_bind_group_layout(0),
-        entries: &[wgpu::BindGroupEntry { binding: 0, resource: ubuf.as_entire_binding() }],
-    });
-    let layer_bind = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &layer_pipe.get_bind_group_layout(0),
-        entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: ubuf.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&dview) },
-        ],
-    });
-    let mut enc = gpu.device.create_command_encoder(&Default::default());
-    {
-        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("hair depth"),
-            color_attachments: &[clear_attachment(&dview, wgpu::Color { r: 1.0, g: 1.0, b: 1.0, a: 1.0 })],
-            depth_stencil_attachment: depth_attachment(&zview),
-            ..Default::default()
-        });
-        pass.set_pipeline(&depth_pipe);
-        pass.set_bind_group(0, &depth_bind, &[]);
-        let n = strips.bind(&mut pass)?;
-        pass.draw_indexed(0..n, 0, 0..1);
-    }
-    {
-        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("hair opacity"),
-            color_attachments: &[clear_attachment(&lview, wgpu::Color::TRANSPARENT)],
-            ..Default::default()
-        });
-        pass.set_pipeline(&layer_pipe);
-        pass.set_bind_group(0, &layer_bind, &[]);
-        let n = strips.bind(&mut pass)?;
-        pass.draw_indexed(0..n, 0, 0..1);
-    }
-    gpu.queue.submit([enc.finish()]);
-    Ok(OpacityMaps { depth, layers, resolution })
-}
-
-impl OpacityMaps {
-    /// Reads both maps back: depth per texel and the four layers.
-    pub fn read(&self, gpu: &Headless) -> (Vec<f32>, Vec<[f32; 4]>) {
-        let d = gpu.read_texture(&self.depth);
-        let l = gpu.read_texture(&self.layers);
-        let depth = d.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
-        let layers = l
-            .chunks_exact(8)
-            .map(|c| std::array::from_fn(|k| half::f16::from_le_bytes([c[2 * k], c[2 * k + 1]]).to_f32()))
-            .collect();
-        (depth, layers)
-    }
-}
-
-/// A camera view of the hair (shading set, Kajiya-Kay) over a ground quad, both shadowed from
-/// `maps`; and the ground's visibility seen by `ground_camera` (R32Float), for the aliasing
-/// figure, drawn once each at their own sizes `(image, ground)`. Returns (RGBA8 image, visibility
-/// image).
-#[allow(clippy::too_many_arguments)]
-pub fn render_scene(
-    gpu: &Headless,
-    strips: &GpuStrips,
-    maps: &OpacityMaps,
-    light: &HairLight,
-    (camera, eye): (Mat4, Vec3),
-    ground: [Vec3; 4],
-    ground_camera: Mat4,
-    (size, ground_size): ((u32, u32), (u32, u32)),
-) -> Result<(Vec<u8>, Vec<f32>), String> {
-    let module = module(gpu);
-    let layouts: Vec<_> = GpuStrips::layouts().into_iter().map(Some).collect();
-    let ground_layout = [Some(wgpu::VertexBufferLayout {
-        array_stride: 12,
-        step_mode: wgpu::VertexStepMode::Vertex,
-        attributes: &wgpu::vertex_attr_array![0 => Float32x3],
-    })];
-    let rgba = wgpu::TextureFormat::Rgba8Unorm;
-    let device = &gpu.device;
-    let pipe = |entries, layout: &[Option<wgpu::VertexBufferLayout>], format, depth| {
-        render_pipeline(device, &module, entries, layout, &[plain_target(format)], depth)
-    };
-    let hair_pipe = pipe(("vs_hair", "fs_hair"), &layouts, rgba, Some(depth_test()));
-    let ground_pipe = pipe(("vs_ground", "fs_ground"), &ground_layout, rgba, Some(depth_test()));
-    let vis_pipe = pipe(("vs_ground", "fs_ground_visibility"), &ground_layout, wgpu::TextureFormat::R32Float, None);
+/// One whole frame of `size`: the opacity maps, the ground (if any) and the hair by `blend`,
+/// over `clear`. The renderer's uniform must be set and its frame targets `size`. Returns the
+/// sRGB RGBA8 pixels.
+pub fn render_frame(
+    g: &Headless,
+    renderer: &HairRenderer,
+    ground: Option<(&Ground, Mat4)>,
+    blend: HairBlend,
+    size: (u32, u32),
+    clear: wgpu::Color,
+) -> Vec<u8> {
     let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
-    let color = gpu.texture(size, rgba, usage);
-    let zbuf = gpu.texture(size, wgpu::TextureFormat::Depth32Float, wgpu::TextureUsages::RENDER_ATTACHMENT);
-    let vis = gpu.texture(ground_size, wgpu::TextureFormat::R32Float, usage);
-    let frame = frame_bytes(light, camera, eye, HairSet::Shading, maps.resolution);
-    let top = frame_bytes(light, ground_camera, eye, HairSet::Shading, maps.resolution);
-    let ubuf = gpu.buffer(frame.len() as u64, wgpu::BufferUsages::UNIFORM, Some(&frame));
-    let tbuf = gpu.buffer(top.len() as u64, wgpu::BufferUsages::UNIFORM, Some(&top));
-    let quad: Vec<u8> =
-        [0usize, 1, 2, 0, 2, 3].iter().flat_map(|&i| ground[i].to_array()).flat_map(f32::to_le_bytes).collect();
-    let gbuf = gpu.buffer(quad.len() as u64, wgpu::BufferUsages::VERTEX, Some(&quad));
-    let (dview, lview) = (maps.depth.create_view(&Default::default()), maps.layers.create_view(&Default::default()));
-    let bind = |pipe: &wgpu::RenderPipeline, u: &wgpu::Buffer| {
-        gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: None,
-            layout: &pipe.get_bind_group_layout(0),
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: u.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&dview) },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&lview) },
-            ],
-        })
-    };
-    let (hb, gb, vb) = (bind(&hair_pipe, &ubuf), bind(&ground_pipe, &ubuf), bind(&vis_pipe, &tbuf));
-    let (cview, zview, vview) = (
-        color.create_view(&Default::default()),
-        zbuf.create_view(&Default::default()),
-        vis.create_view(&Default::default()),
-    );
-    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    let color = g.texture(size, COLOR_FORMAT, usage);
+    let depth = g.texture(size, DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
+    let (cv, dv) = (color.create_view(&Default::default()), depth.create_view(&Default::default()));
+    let mut encoder = g.device.create_command_encoder(&Default::default());
+    renderer.render_opacity_maps(&mut encoder);
     {
-        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("hair scene"),
-            color_attachments: &[clear_attachment(&cview, wgpu::Color { r: 0.55, g: 0.65, b: 0.8, a: 1.0 })],
-            depth_stencil_attachment: depth_attachment(&zview),
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("scene"),
+            color_attachments: &[clear_attachment(&cv, clear)],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &dv,
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
             ..Default::default()
         });
-        pass.set_pipeline(&ground_pipe);
-        pass.set_bind_group(0, &gb, &[]);
-        pass.set_vertex_buffer(0, gbuf.slice(..));
-        pass.draw(0..6, 0..1);
-        pass.set_pipeline(&hair_pipe);
-        pass.set_bind_group(0, &hb, &[]);
-        let n = strips.bind(&mut pass)?;
-        pass.draw_indexed(0..n, 0, 0..1);
+        if let Some((ground, view_proj)) = ground {
+            ground.draw(g, &mut pass, renderer, &ground.color, view_proj);
+        }
+        if blend == HairBlend::Opaque {
+            renderer.draw_opaque(&mut pass);
+        }
     }
-    {
-        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("ground visibility"),
-            color_attachments: &[clear_attachment(&vview, wgpu::Color::WHITE)],
+    if blend == HairBlend::OrderIndependent {
+        renderer.render_hair(&mut encoder, Some(&dv));
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("composite"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &cv,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+            })],
             ..Default::default()
         });
-        pass.set_pipeline(&vis_pipe);
-        pass.set_bind_group(0, &vb, &[]);
-        pass.set_vertex_buffer(0, gbuf.slice(..));
-        pass.draw(0..6, 0..1);
+        renderer.composite(&mut pass);
     }
-    gpu.queue.submit([enc.finish()]);
-    let image = gpu.read_texture(&color);
-    let v = gpu.read_texture(&vis).chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
-    Ok((image, v))
+    g.queue.submit([encoder.finish()]);
+    g.read_texture(&color)
+}
+
+/// The renderer's opacity maps read back: the nearest depth per texel and the four layers.
+pub fn read_opacity_maps(g: &Headless, renderer: &HairRenderer) -> (Vec<f32>, Vec<[f32; 4]>) {
+    let (depth, layers) = renderer.opacity_maps();
+    let d = g.read_texture(depth);
+    let l = g.read_texture(layers);
+    let depth = d.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    let layers = l
+        .chunks_exact(8)
+        .map(|c| std::array::from_fn(|k| half::f16::from_le_bytes([c[2 * k], c[2 * k + 1]]).to_f32()))
+        .collect();
+    (depth, layers)
 }
 
 /// Aliasing of a shadow image: the mean squared difference between each pixel and the mean of
@@ -312,4 +237,94 @@ pub fn high_frequency_energy(v: &[f32], (w, h): (u32, u32)) -> f64 {
         return 0.0;
     }
     (energy / n as f64) / (dark / n as f64).powi(2)
+}
+
+/// How [`camera_reference`] composites the fragments of a pixel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Composite {
+    /// Sorted by depth, blended front to back: the exact answer.
+    Sorted,
+    /// The renderer's weighted blended order-independent transparency.
+    OrderIndependent,
+    /// The nearest fragment, opaque.
+    Opaque,
+}
+
+/// The hair seen by `camera` from `eye`, on the CPU: every fragment of the shading strips
+/// (expanded toward the eye), shaded by the CPU reference with the opacity maps `maps` (read
+/// back from the GPU, or from `accumulate_cpu`), composited by `how` over black. Per pixel:
+/// linear RGB (premultiplied) and coverage.
+#[allow(clippy::too_many_arguments)]
+pub fn camera_reference(
+    strips: &hikage_runtime::hair::reference::StripArrays,
+    uniform: &hikage_runtime::hair::HairUniform,
+    light: &hikage_runtime::hair::HairLight,
+    maps: &(Vec<f32>, Vec<[f32; 4]>),
+    camera: Mat4,
+    eye: Vec3,
+    size: (u32, u32),
+    how: Composite,
+) -> Vec<[f32; 4]> {
+    use hikage_runtime::hair::reference::{expand, hair_kajiya_kay, hair_oit_weight, hair_visibility};
+    let world: Vec<Vec3> = (0..strips.position.len())
+        .map(|v| {
+            let p = strips.position[v];
+            expand(p, strips.side[v], strips.tangent[v], strips.width[v][0], (eye - p).normalize())
+        })
+        .collect();
+    let clip: Vec<glam::Vec4> = world.iter().map(|w| camera * w.extend(1.0)).collect();
+    let to_light = Vec3::from_slice(&uniform.to_light[..3]);
+    // (depth, premultiplied colour, opacity, weight) per fragment, per pixel.
+    let mut pixels: Vec<Vec<(f32, Vec3, f32, f32)>> = vec![Vec::new(); (size.0 * size.1) as usize];
+    crate::raster::for_each_fragment(&clip, &strips.indices, size, false, |i, t, q, z| {
+        let v = |k: usize| strips.indices[3 * t + k] as usize;
+        let mix3 = |f: &dyn Fn(usize) -> Vec3| f(v(0)) * q[0] + f(v(1)) * q[1] + f(v(2)) * q[2];
+        let p = mix3(&|k| world[k]);
+        let tangent = mix3(&|k| strips.tangent[k]).normalize();
+        let base = mix3(&|k| strips.color[k]);
+        let alpha = (0..3).map(|k| strips.opacity[v(k)][0] * q[k]).sum::<f32>();
+        let view_depth = (0..3).map(|k| clip[v(k)].w * q[k]).sum::<f32>();
+        let vis = hair_visibility(light, &maps.0, &maps.1, uniform.resolution, p);
+        let c = hair_kajiya_kay(uniform, tangent, to_light, (eye - p).normalize(), base, vis);
+        pixels[i].push((z, c, alpha, hair_oit_weight(view_depth, alpha)));
+    });
+    pixels
+        .into_iter()
+        .map(|mut f| {
+            if f.is_empty() {
+                return [0.0; 4];
+            }
+            match how {
+                Composite::Sorted => {
+                    f.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    let (mut c, mut a) = (Vec3::ZERO, 0.0f32);
+                    for (_, color, alpha, _) in f {
+                        c += color * alpha * (1.0 - a);
+                        a += alpha * (1.0 - a);
+                    }
+                    [c.x, c.y, c.z, a]
+                }
+                Composite::OrderIndependent => {
+                    let (mut sum, mut weight, mut revealage) = (Vec3::ZERO, 0.0f32, 1.0f32);
+                    for (_, color, alpha, w) in f {
+                        sum += color * alpha * w;
+                        weight += alpha * w;
+                        revealage *= 1.0 - alpha;
+                    }
+                    let c = sum / weight.max(1e-5) * (1.0 - revealage);
+                    [c.x, c.y, c.z, 1.0 - revealage]
+                }
+                Composite::Opaque => {
+                    let (_, c, _, _) = f.into_iter().min_by(|a, b| a.0.total_cmp(&b.0)).expect("not empty");
+                    [c.x, c.y, c.z, 1.0]
+                }
+            }
+        })
+        .collect()
+}
+
+/// Linear RGB of an sRGB byte.
+pub fn srgb_to_linear(b: u8) -> f32 {
+    let c = b as f32 / 255.0;
+    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
 }

@@ -30,3 +30,27 @@ pub fn open_bundle(dir: &Path) -> Result<(CpuBundle, headless::Headless, GpuBund
     let uploaded = GpuBundle::upload(&gpu.device, &gpu.queue, &cpu)?;
     Ok((cpu, gpu, uploaded))
 }
+
+/// The vertices of a `Curvature` asset's mesh as a [`ReliefMaterial`] draws them: the tangent
+/// along `P_u`, its sign from `P_v` (the bitangent is `w · cross(normal, tangent)`).
+///
+/// [`ReliefMaterial`]: hikage_runtime::relief::ReliefMaterial
+pub fn relief_vertices(mesh: &hikage_bundle::MeshData) -> Vec<hikage_runtime::relief::ReliefVertex> {
+    use glam::Vec3;
+    let stream = |name: &str| mesh.read_f32(name).unwrap_or_else(|| panic!("a curvature mesh has `{name}`"));
+    let (position, normal, uv) = (stream("position"), stream("normal"), stream("uv"));
+    let (pu, pv) = (stream("tangent_u"), stream("tangent_v"));
+    (0..mesh.desc.vertex_count as usize)
+        .map(|v| {
+            let n = Vec3::from_slice(&normal[3 * v..]);
+            let t = Vec3::from_slice(&pu[3 * v..]).normalize();
+            let w = if n.cross(t).dot(Vec3::from_slice(&pv[3 * v..])) < 0.0 { -1.0 } else { 1.0 };
+            hikage_runtime::relief::ReliefVertex {
+                position: [position[3 * v], position[3 * v + 1], position[3 * v + 2]],
+                normal: n.to_array(),
+                tangent: t.extend(w).to_array(),
+                uv: [uv[2 * v], uv[2 * v + 1]],
+            }
+        })
+        .collect()
+}

@@ -1,20 +1,41 @@
 //! A CPU rasteriser for the GPU tests: which triangle covers each pixel centre, and with which
 //! barycentric weights, so a test can interpolate a mesh's streams there and run a shader's CPU
-//! reference on them. Weights are affine in screen space, which is what the GPU interpolates
-//! under an orthographic camera (w = 1). Nearest surface wins; back faces (clockwise in NDC, the
-//! opposite of wgpu's default counter-clockwise front face) are culled when asked.
+//! reference on them. Coverage and depth are affine in screen space; the weights are
+//! perspective-correct, as the GPU interpolates vertex outputs. Nearest surface wins; back faces
+//! (clockwise in NDC, the opposite of wgpu's default counter-clockwise front face) are culled
+//! when asked.
 
 use glam::{Vec3, Vec4};
 
 /// Per pixel, row-major: the covering triangle's index and its vertices' weights.
 pub type Coverage = Vec<Option<(usize, [f32; 3])>>;
 
-/// Rasterises triangles `indices` of clip-space `clip` positions into `width × height` pixels.
-pub fn rasterise(clip: &[Vec4], indices: &[u32], (width, height): (u32, u32), cull_back: bool) -> Coverage {
+/// Rasterises triangles `indices` of clip-space `clip` positions into `width × height` pixels:
+/// the nearest triangle per pixel.
+pub fn rasterise(clip: &[Vec4], indices: &[u32], size: (u32, u32), cull_back: bool) -> Coverage {
+    let mut cover: Coverage = vec![None; (size.0 * size.1) as usize];
+    let mut depth = vec![f32::INFINITY; cover.len()];
+    for_each_fragment(clip, indices, size, cull_back, |i, t, weights, z| {
+        if z < depth[i] {
+            depth[i] = z;
+            cover[i] = Some((t, weights));
+        }
+    });
+    cover
+}
+
+/// Calls `f(pixel, triangle, weights, ndc_depth)` for every pixel centre every triangle covers,
+/// in triangle order (a pixel covered by several triangles is visited once for each).
+pub fn for_each_fragment(
+    clip: &[Vec4],
+    indices: &[u32],
+    (width, height): (u32, u32),
+    cull_back: bool,
+    mut f: impl FnMut(usize, usize, [f32; 3], f32),
+) {
     let (w, h) = (width as usize, height as usize);
-    let mut cover: Coverage = vec![None; w * h];
-    let mut depth = vec![f32::INFINITY; w * h];
     // Framebuffer coordinates (y down) and NDC depth.
+    let inv_w: Vec<f32> = clip.iter().map(|c| 1.0 / c.w).collect();
     let screen: Vec<Vec3> = clip
         .iter()
         .map(|c| {
@@ -42,15 +63,12 @@ pub fn rasterise(clip: &[Vec4], indices: &[u32], (width, height): (u32, u32), cu
                     continue;
                 }
                 let z = weights[0] * a.z + weights[1] * b.z + weights[2] * c.z;
-                let i = y * w + x;
-                if z < depth[i] {
-                    depth[i] = z;
-                    cover[i] = Some((t, weights));
-                }
+                let q = [0, 1, 2].map(|k| weights[k] * inv_w[tri[k] as usize]);
+                let sum = q[0] + q[1] + q[2];
+                f(y * w + x, t, q.map(|v| v / sum), z);
             }
         }
     }
-    cover
 }
 
 /// A stream of `components` floats per vertex interpolated with `weights` over triangle `t`.

@@ -85,34 +85,6 @@ pub struct PixelData {
     pub ao: f32,
 }
 
-/// The `ReliefParams` uniform of [`hikage_runtime::relief::RELIEF_WGSL`] for `maps` and `tracer`.
-pub fn relief_params(maps: &ReliefMaps, tracer: Tracer) -> Vec<u8> {
-    let (steps, binary, start, stop, margin) = match tracer {
-        Tracer::Linear { steps, binary } | Tracer::DepthMap { steps, binary } => (steps, binary, 0, 0, 0.0),
-        Tracer::MaxMip { start_level, stop_level } => (0, 0, start_level, stop_level, 0.0),
-        Tracer::Combined { margin, start_level } => (0, 0, start_level, 0, margin),
-    };
-    let words: [u32; 16] = [
-        maps.max_mip.width(),
-        maps.max_mip.height(),
-        maps.depth_size.0,
-        maps.depth_size.1,
-        maps.max_mip.levels(),
-        maps.dirs.theta,
-        maps.dirs.phi,
-        tracer.code(),
-        maps.thickness.to_bits(),
-        steps,
-        binary,
-        start,
-        stop,
-        margin.to_bits(),
-        0,
-        0,
-    ];
-    words.iter().flat_map(|w| w.to_le_bytes()).collect()
-}
-
 /// Renders the quad on the GPU with `tracer`: RGBA8 colour and per-pixel data. `max_mip` is the
 /// max-mip texture's view (every level), `depth` the depth maps' (2D array).
 pub fn render(
@@ -137,8 +109,9 @@ pub fn render(
         plain_target(wgpu::TextureFormat::Rgba32Float),
     ];
     let pipeline = render_pipeline(device, &module, ("vs", "fs"), &[], &targets, None);
-    let params = relief_params(maps, tracer);
-    let pbuf = gpu.buffer(params.len() as u64, wgpu::BufferUsages::UNIFORM, Some(&params));
+    let params = maps.uniform(tracer);
+    let params = hikage_runtime::bytemuck::bytes_of(&params);
+    let pbuf = gpu.buffer(params.len() as u64, wgpu::BufferUsages::UNIFORM, Some(params));
     let (forward, right, up) = basis(view);
     let l = view.light;
     let mut scene: Vec<f32> = Vec::new();

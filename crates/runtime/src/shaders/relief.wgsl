@@ -4,7 +4,7 @@
 // top plane down, the relief `thickness` texels deep. A ray is (origin on the top plane, unit
 // direction with z > 0 going down), parameterised by its length s in texels.
 
-struct ReliefParams {
+struct ReliefUniform {
     size: vec2<u32>,        // heightfield width, height (powers of two)
     depth_size: vec2<u32>,  // depth-map width, height
     levels: u32,            // max-mip levels
@@ -22,7 +22,7 @@ struct ReliefParams {
 
 @group(0) @binding(0) var relief_heights: texture_2d<f32>;
 @group(0) @binding(1) var relief_depths: texture_2d_array<f32>;
-@group(0) @binding(2) var<uniform> relief: ReliefParams;
+@group(0) @binding(2) var<uniform> relief: ReliefUniform;
 
 const RELIEF_HALF_PI: f32 = 1.5707963267948966;
 const RELIEF_TAU: f32 = 6.283185307179586;
@@ -237,6 +237,19 @@ fn relief_trace(r: ReliefRay) -> f32 {
             return relief_maxmip(r, s0, 3.0e38, relief.start_level, 0u);
         }
     }
+}
+
+// The shading normal at a point of the relief (texels, z up): central differences of the
+// heights around its texel (hikage_runtime::relief::ReliefMaps::normal).
+fn relief_normal(p: vec3<f32>) -> vec3<f32> {
+    let i = i32(floor(p.x));
+    let j = i32(floor(p.y));
+    let k = 0.5 * relief.thickness;
+    return normalize(vec3<f32>(
+        (relief_max_height(0u, i - 1, j) - relief_max_height(0u, i + 1, j)) * k,
+        (relief_max_height(0u, i, j - 1) - relief_max_height(0u, i, j + 1)) * k,
+        1.0,
+    ));
 }
 
 // Where the ray from the top plane toward -`toward` (unit, z up) reaching `uvz` enters.

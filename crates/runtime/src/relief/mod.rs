@@ -22,10 +22,50 @@ use hikage_bundle::{AssetKind, ReliefSettings, Settings, TextureData};
 use crate::error::RuntimeError;
 use crate::load::CpuBundle;
 
-/// WGSL of the tracers, shadows and ambient occlusion. Bindings (group 0): 0 the max-mip
-/// texture (`texture_2d<f32>`, level 0 the heights), 1 the depth maps (`texture_2d_array<f32>`),
-/// 2 a uniform `ReliefParams`.
-pub const RELIEF_WGSL: &str = include_str!("shaders/relief.wgsl");
+mod material;
+
+pub use material::{
+    ReliefFrame, ReliefMaterial, ReliefMaterialUniform, ReliefOptions, ReliefPixel, ReliefVertex, relief_material_shade,
+};
+
+/// WGSL of the tracers, shadows and ambient occlusion. Bindings (at `@group(0)`; a
+/// [`ReliefMaterial`] moves them to the group the game chose): 0 the max-mip texture
+/// (`texture_2d<f32>`, level 0 the heights), 1 the depth maps (`texture_2d_array<f32>`), 2 a
+/// uniform [`ReliefUniform`].
+pub const RELIEF_WGSL: &str = include_str!("../shaders/relief.wgsl");
+
+/// The tracer's `ReliefUniform` in the WGSL: the maps' sizes and direction table, and the
+/// tracer with its setting (64 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ReliefUniform {
+    /// Heightfield width and height (powers of two).
+    pub size: [u32; 2],
+    /// Depth-map width and height.
+    pub depth_size: [u32; 2],
+    /// Max-mip levels.
+    pub levels: u32,
+    /// Zenith rows of the direction table.
+    pub theta_rows: u32,
+    /// Azimuths per row.
+    pub phi_cols: u32,
+    /// [`Tracer::code`].
+    pub tracer: u32,
+    /// Relief depth in texels of the heightfield.
+    pub thickness: f32,
+    /// Linear and depth-map tracers: steps over the full depth.
+    pub steps: u32,
+    /// Linear and depth-map tracers: binary-search halvings.
+    pub binary: u32,
+    /// Max-mip tracers: the level the traversal starts at.
+    pub start_level: u32,
+    /// Max-mip tracer: the level it stops refining at.
+    pub stop_level: u32,
+    /// Combined tracer: share of the depth-map estimate stepped back.
+    pub margin: f32,
+    /// Padding.
+    pub _pad: [u32; 2],
+}
 
 /// A relief asset pair in memory: the max-mip pyramid (its level 0 is the surface) and the depth
 /// maps with their direction table.
@@ -116,7 +156,44 @@ impl Tracer {
     }
 }
 
+impl ReliefUniform {
+    /// This uniform with `tracer` and its setting in place of its own.
+    pub fn with_tracer(self, tracer: Tracer) -> ReliefUniform {
+        let (steps, binary, start_level, stop_level, margin) = match tracer {
+            Tracer::Linear { steps, binary } | Tracer::DepthMap { steps, binary } => (steps, binary, 0, 0, 0.0),
+            Tracer::MaxMip { start_level, stop_level } => (0, 0, start_level, stop_level, 0.0),
+            Tracer::Combined { margin, start_level } => (0, 0, start_level, 0, margin),
+        };
+        ReliefUniform { tracer: tracer.code(), steps, binary, start_level, stop_level, margin, ..self }
+    }
+}
+
 impl ReliefMaps {
+    /// The tracer uniform for these maps and `tracer`.
+    pub fn uniform(&self, tracer: Tracer) -> ReliefUniform {
+        ReliefUniform {
+            size: [self.max_mip.width(), self.max_mip.height()],
+            depth_size: [self.depth_size.0, self.depth_size.1],
+            levels: self.max_mip.levels(),
+            theta_rows: self.dirs.theta,
+            phi_cols: self.dirs.phi,
+            thickness: self.thickness,
+            ..ReliefUniform::default()
+        }
+        .with_tracer(tracer)
+    }
+
+    /// The shading normal at a point of the relief (texels, `z` up): central differences of
+    /// the heights around its texel, as `relief_normal` in the WGSL.
+    pub fn normal(&self, p: [f32; 3]) -> [f32; 3] {
+        let (i, j) = (p[0].floor() as i64, p[1].floor() as i64);
+        let h = |i: i64, j: i64| self.max_mip.max_height(0, i, j);
+        let k = 0.5 * self.thickness;
+        let n = [(h(i - 1, j) - h(i + 1, j)) * k, (h(i, j - 1) - h(i, j + 1)) * k, 1.0];
+        let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        [n[0] / l, n[1] / l, n[2] / l]
+    }
+
     /// Reads a relief asset and the max-mip pyramid it names from a loaded bundle.
     pub fn from_bundle(bundle: &CpuBundle, relief_id: &str) -> Result<ReliefMaps, RuntimeError> {
         let bad = |id: &str, m: String| RuntimeError::Unsupported { asset: id.to_string(), message: m };

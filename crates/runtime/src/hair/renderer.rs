@@ -1,0 +1,590 @@
+//! [`HairRenderer`]: the deep opacity maps from a light, the shading set blended at its opacity
+//! (or opaque) from the camera, and `hair_visibility` for the game's shadow receivers.
+
+use glam::{Mat4, Vec3};
+use hikage_bundle::{ComponentType, MeshDesc, StrandsSettings};
+
+use super::{HAIR_WGSL, HairLight, HairSet};
+use crate::error::RuntimeError;
+use crate::gpu;
+use crate::upload::GpuBundle;
+
+/// The strands mesh's streams, in shader location order.
+const STREAMS: [(&str, wgpu::VertexFormat); 6] = [
+    ("position", wgpu::VertexFormat::Float32x3),
+    ("side", wgpu::VertexFormat::Float32),
+    ("tangent", wgpu::VertexFormat::Float32x3),
+    ("width", wgpu::VertexFormat::Float32x2),
+    ("opacity", wgpu::VertexFormat::Float32x2),
+    ("color", wgpu::VertexFormat::Float32x3),
+];
+
+const DEPTH_MAP: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
+const LAYERS: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+const ACCUM: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+const REVEALAGE: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
+
+/// The `HairUniform` of the hair WGSL, as it is in the uniform buffer (224 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct HairUniform {
+    /// World → light clip, column-major.
+    pub light: [[f32; 4]; 4],
+    /// World → camera clip, column-major.
+    pub camera: [[f32; 4]; 4],
+    /// Camera position.
+    pub eye: [f32; 4],
+    /// Unit vector toward the light.
+    pub to_light: [f32; 4],
+    /// Light RGB.
+    pub light_color: [f32; 4],
+    /// Ambient RGB.
+    pub ambient: [f32; 4],
+    /// Layer step `d` in light NDC depth.
+    pub step: f32,
+    /// The set drawn into the opacity maps: 0 shading, 1 opacity.
+    pub opacity_set: u32,
+    /// Opacity-map texels per side.
+    pub resolution: u32,
+    /// Kajiya-Kay exponent.
+    pub specular_power: f32,
+    /// Kajiya-Kay specular strength.
+    pub specular: f32,
+    /// Padding.
+    pub _pad: [u32; 3],
+}
+
+/// What changes from frame to frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HairFrame {
+    /// World → camera clip (wgpu: depth 0..1).
+    pub camera: Mat4,
+    /// The camera's position, world space (strips face it).
+    pub eye: Vec3,
+    /// The light and its opacity-map projection ([`HairRenderer::light`]).
+    pub light: HairLight,
+    /// The set drawn into the opacity maps: the wide faint opacity set (the seed's) or the
+    /// shading set itself (plain deep opacity maps).
+    pub set: HairSet,
+    /// Linear RGB of the light.
+    pub light_color: Vec3,
+    /// Linear RGB of the ambient light.
+    pub ambient: Vec3,
+    /// Kajiya-Kay specular strength.
+    pub specular: f32,
+    /// Kajiya-Kay specular exponent.
+    pub specular_power: f32,
+}
+
+impl HairFrame {
+    /// A frame for `camera` at `eye` lit by `light` through the opacity set, with white light,
+    /// a little ambient light and a specular highlight.
+    pub fn new(camera: Mat4, eye: Vec3, light: HairLight) -> HairFrame {
+        HairFrame {
+            camera,
+            eye,
+            light,
+            set: HairSet::Opacity,
+            light_color: Vec3::ONE,
+            ambient: Vec3::splat(0.15),
+            specular: 0.25,
+            specular_power: 40.0,
+        }
+    }
+}
+
+/// How the renderer's pipelines are built.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HairOptions {
+    /// Opacity-map texels per side.
+    pub resolution: u32,
+    /// The game's colour target, which [`HairRenderer::composite`] and
+    /// [`HairRenderer::draw_opaque`] draw into (its format; blending is the renderer's).
+    pub color_format: wgpu::TextureFormat,
+    /// The game's depth format: the camera passes test the scene's depth so hair hides behind
+    /// geometry. `None` when the game draws without depth.
+    pub depth_format: Option<wgpu::TextureFormat>,
+    /// The frame's size in pixels (the order-independent blend keeps two targets of it;
+    /// [`HairRenderer::resize`] changes it).
+    pub size: (u32, u32),
+    /// The bind group index of the renderer's group in every pipeline, and of the receivers'
+    /// group ([`HairRenderer::receiver_bind_group`]) in the game's own shaders.
+    pub group: u32,
+}
+
+impl HairOptions {
+    /// 256² opacity maps, a `size` frame drawn into `color_format` with no depth, group 0.
+    pub fn new(color_format: wgpu::TextureFormat, size: (u32, u32)) -> HairOptions {
+        HairOptions { resolution: 256, color_format, depth_format: None, size, group: 0 }
+    }
+}
+
+/// Hair strips with anti-aliased shadows (seed 004): deep opacity maps from a light, drawn from
+/// either set of a `Strands` asset, and the shading set seen by the camera, shaded with
+/// Kajiya-Kay and shadowed through the maps.
+///
+/// The camera draws the shading set blended at each strand's own opacity with weighted blended
+/// order-independent transparency (McGuire & Bavoil 2013): no sorting, two frame-sized
+/// targets and a composite over the scene; [`draw_opaque`](HairRenderer::draw_opaque) draws it
+/// opaque instead. A frame records, into the game's encoder:
+///
+/// ```no_run
+/// # fn frame(device: &wgpu::Device, queue: &wgpu::Queue, gpu: &hikage_runtime::GpuBundle, color: &wgpu::TextureView, depth: &wgpu::TextureView, camera: hikage_runtime::glam::Mat4, eye: hikage_runtime::glam::Vec3) -> Result<(), hikage_runtime::RuntimeError> {
+/// use hikage_runtime::hair::{HairFrame, HairOptions, HairRenderer};
+/// use hikage_runtime::{glam::Vec3, wgpu};
+///
+/// let options = HairOptions {
+///     depth_format: Some(wgpu::TextureFormat::Depth32Float),
+///     ..HairOptions::new(wgpu::TextureFormat::Rgba8UnormSrgb, (1280, 720))
+/// };
+/// let hair = HairRenderer::new(device, queue, gpu, "head.strips", &options)?;
+/// let light = hair.light(Vec3::new(0.45, 1.0, 0.3));
+/// hair.update(queue, &HairFrame::new(camera, eye, light));
+/// let mut encoder = device.create_command_encoder(&Default::default());
+/// hair.render_opacity_maps(&mut encoder);
+/// // … the game draws its scene into `color` and `depth`, its receivers reading
+/// // `hair_visibility` through `hair.receiver_bind_group()` …
+/// hair.render_hair(&mut encoder, Some(depth));
+/// {
+///     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+///         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+///             view: color,
+///             depth_slice: None,
+///             resolve_target: None,
+///             ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+///         })],
+///         ..Default::default()
+///     });
+///     hair.composite(&mut pass);
+/// }
+/// queue.submit([encoder.finish()]);
+/// # Ok(()) }
+/// ```
+#[derive(Debug)]
+pub struct HairRenderer {
+    wgsl: String,
+    group: u32,
+    resolution: u32,
+    settings: StrandsSettings,
+    buffer: wgpu::Buffer,
+    desc: MeshDesc,
+    uniform: wgpu::Buffer,
+    depth_map: wgpu::Texture,
+    layers: wgpu::Texture,
+    zbuffer: wgpu::TextureView,
+    layouts: Layouts,
+    light_group: wgpu::BindGroup,
+    opacity_group: wgpu::BindGroup,
+    receiver_group: wgpu::BindGroup,
+    composite_group: wgpu::BindGroup,
+    accum: wgpu::TextureView,
+    revealage: wgpu::TextureView,
+    pipelines: Pipelines,
+    has_depth: bool,
+}
+
+#[derive(Debug)]
+struct Layouts {
+    light: wgpu::BindGroupLayout,
+    opacity: wgpu::BindGroupLayout,
+    receiver: wgpu::BindGroupLayout,
+    composite: wgpu::BindGroupLayout,
+}
+
+#[derive(Debug)]
+struct Pipelines {
+    depth: wgpu::RenderPipeline,
+    opacity: wgpu::RenderPipeline,
+    oit: wgpu::RenderPipeline,
+    opaque: wgpu::RenderPipeline,
+    composite: wgpu::RenderPipeline,
+}
+
+fn texture(device: &wgpu::Device, size: (u32, u32), format: wgpu::TextureFormat, label: &str) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    })
+}
+
+fn view_entry(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) }
+}
+
+impl HairRenderer {
+    /// Builds the renderer of `strips` (a `Strands` asset of `gpu`).
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        gpu: &GpuBundle,
+        strips: &str,
+        options: &HairOptions,
+    ) -> Result<HairRenderer, RuntimeError> {
+        let mesh = gpu.mesh(strips)?;
+        let bad = |message: String| RuntimeError::Asset { asset: strips.to_string(), message };
+        let settings = mesh
+            .asset
+            .settings
+            .strands()
+            .ok_or_else(|| bad(format!("expected a strands asset, found a {}", mesh.asset.kind.name())))?
+            .clone();
+        for (name, format) in STREAMS {
+            let a = mesh.desc.attribute(name).ok_or_else(|| bad(format!("no `{name}` stream")))?;
+            if a.component != ComponentType::F32 || a.stride as u64 != format.size() {
+                return Err(bad(format!("stream `{name}` must be tightly packed {format:?}")));
+            }
+        }
+        if !matches!(mesh.desc.indices.as_ref().map(|i| i.component), Some(ComponentType::U32)) {
+            return Err(bad("a strands mesh needs U32 indices".into()));
+        }
+        if options.resolution == 0 || options.resolution > device.limits().max_texture_dimension_2d {
+            return Err(bad(format!("opacity maps of {} texels a side do not fit this device", options.resolution)));
+        }
+        let resolution = options.resolution;
+        let wgsl = gpu::at_group(HAIR_WGSL, options.group);
+        let uniform = gpu::uniform_buffer(device, queue, "hikage hair", &HairUniform::zeroed_for(resolution));
+        let maps = (resolution, resolution);
+        let depth_map = texture(device, maps, DEPTH_MAP, "hikage hair depth map");
+        let layers = texture(device, maps, LAYERS, "hikage hair opacity layers");
+        let zbuffer = device
+            .create_texture(&wgpu::TextureDescriptor {
+                label: Some("hikage hair light depth"),
+                size: wgpu::Extent3d { width: resolution, height: resolution, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Depth32Float,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                view_formats: &[],
+            })
+            .create_view(&Default::default());
+        let sampled = |b| gpu::texture_entry(b, wgpu::TextureViewDimension::D2, false);
+        let layout = |label: &str, entries: &[wgpu::BindGroupLayoutEntry]| {
+            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries })
+        };
+        let layouts = Layouts {
+            light: layout("hikage hair light", &[gpu::uniform_entry(0)]),
+            opacity: layout("hikage hair opacity", &[gpu::uniform_entry(0), sampled(1)]),
+            receiver: layout("hikage hair receivers", &[gpu::uniform_entry(0), sampled(1), sampled(2)]),
+            composite: layout("hikage hair composite", &[sampled(3), sampled(4)]),
+        };
+        let (depth_view, layers_view) =
+            (depth_map.create_view(&Default::default()), layers.create_view(&Default::default()));
+        let ubind = wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() };
+        let group = |layout: &wgpu::BindGroupLayout, entries: &[wgpu::BindGroupEntry]| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("hikage hair"), layout, entries })
+        };
+        let light_group = group(&layouts.light, std::slice::from_ref(&ubind));
+        let opacity_group = group(&layouts.opacity, &[ubind.clone(), view_entry(1, &depth_view)]);
+        let receiver_group =
+            group(&layouts.receiver, &[ubind.clone(), view_entry(1, &depth_view), view_entry(2, &layers_view)]);
+        let (accum, revealage, composite_group) = frame_targets(device, &layouts.composite, options.size);
+        let pipelines = gpu::checked(device, strips, || pipelines(device, &wgsl, &layouts, options))?;
+        Ok(HairRenderer {
+            wgsl,
+            group: options.group,
+            resolution,
+            settings,
+            buffer: mesh.buffer.clone(),
+            desc: mesh.desc.clone(),
+            uniform,
+            depth_map,
+            layers,
+            zbuffer,
+            layouts,
+            light_group,
+            opacity_group,
+            receiver_group,
+            composite_group,
+            accum,
+            revealage,
+            pipelines,
+            has_depth: options.depth_format.is_some(),
+        })
+    }
+
+    /// An orthographic light along `to_light` fitted to the hair's bounding box (from the
+    /// asset's settings): nothing outside the box is drawn into the maps.
+    pub fn light(&self, to_light: Vec3) -> HairLight {
+        HairLight::for_bounds(Vec3::from(self.settings.bounds_min), Vec3::from(self.settings.bounds_max), to_light)
+    }
+
+    /// The strands asset's settings (both sets, bounds).
+    pub fn settings(&self) -> &StrandsSettings {
+        &self.settings
+    }
+
+    /// The uniform for `frame`.
+    pub fn uniform(&self, frame: &HairFrame) -> HairUniform {
+        HairUniform {
+            light: frame.light.view_proj.to_cols_array_2d(),
+            camera: frame.camera.to_cols_array_2d(),
+            eye: frame.eye.extend(1.0).to_array(),
+            to_light: frame.light.to_light.normalize().extend(0.0).to_array(),
+            light_color: frame.light_color.extend(0.0).to_array(),
+            ambient: frame.ambient.extend(0.0).to_array(),
+            step: frame.light.step,
+            opacity_set: u32::from(frame.set == HairSet::Opacity),
+            resolution: self.resolution,
+            specular_power: frame.specular_power,
+            specular: frame.specular,
+            _pad: [0; 3],
+        }
+    }
+
+    /// Writes the uniform for `frame`; the next submitted passes use it.
+    pub fn update(&self, queue: &wgpu::Queue, frame: &HairFrame) {
+        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.uniform(frame)));
+    }
+
+    /// The hair's WGSL with its bindings at the chosen group, for a game's own receivers:
+    /// `hair_visibility(world)` with [`receiver_layout`](Self::receiver_layout).
+    pub fn wgsl(&self) -> &str {
+        &self.wgsl
+    }
+
+    /// The layout of the receivers' bind group: 0 the uniform, 1 the depth map, 2 the layers.
+    pub fn receiver_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.layouts.receiver
+    }
+
+    /// The receivers' bind group, valid once [`render_opacity_maps`](Self::render_opacity_maps)
+    /// has run in the same frame.
+    pub fn receiver_bind_group(&self) -> &wgpu::BindGroup {
+        &self.receiver_group
+    }
+
+    /// The opacity maps: the nearest hair depth per texel (R32Float, light NDC; 1 where there is
+    /// none) and the four cumulative layers (Rgba16Float).
+    pub fn opacity_maps(&self) -> (&wgpu::Texture, &wgpu::Texture) {
+        (&self.depth_map, &self.layers)
+    }
+
+    /// Records the two light passes into `encoder`: the depth map, then the opacity layers.
+    pub fn render_opacity_maps(&self, encoder: &mut wgpu::CommandEncoder) {
+        let (depth_view, layers_view) =
+            (self.depth_map.create_view(&Default::default()), self.layers.create_view(&Default::default()));
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("hikage hair depth map"),
+                color_attachments: &[color_attachment(&depth_view, wgpu::Color::WHITE)],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &self.zbuffer,
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+                    stencil_ops: None,
+                }),
+                ..Default::default()
+            });
+            self.draw_strips(&mut pass, &self.pipelines.depth, &self.light_group);
+        }
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("hikage hair opacity layers"),
+            color_attachments: &[color_attachment(&layers_view, wgpu::Color::TRANSPARENT)],
+            ..Default::default()
+        });
+        self.draw_strips(&mut pass, &self.pipelines.opacity, &self.opacity_group);
+    }
+
+    /// Records the camera pass of the order-independent blend into `encoder`: the shading set
+    /// accumulated into the renderer's frame targets, depth-tested against `scene_depth` (the
+    /// game's depth attachment, read only; give it exactly when the options had a depth
+    /// format). [`composite`](Self::composite) then blends the result over the scene.
+    pub fn render_hair(&self, encoder: &mut wgpu::CommandEncoder, scene_depth: Option<&wgpu::TextureView>) {
+        debug_assert_eq!(scene_depth.is_some(), self.has_depth, "scene_depth must match HairOptions::depth_format");
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("hikage hair"),
+            color_attachments: &[
+                color_attachment(&self.accum, wgpu::Color::TRANSPARENT),
+                color_attachment(&self.revealage, wgpu::Color::WHITE),
+            ],
+            depth_stencil_attachment: scene_depth.map(|view| wgpu::RenderPassDepthStencilAttachment {
+                view,
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            ..Default::default()
+        });
+        self.draw_strips(&mut pass, &self.pipelines.oit, &self.receiver_group);
+    }
+
+    /// Blends the hair accumulated by [`render_hair`](Self::render_hair) over the game's colour
+    /// target in `pass`, a pass with that one colour attachment and no depth attachment.
+    pub fn composite(&self, pass: &mut wgpu::RenderPass<'_>) {
+        pass.set_pipeline(&self.pipelines.composite);
+        pass.set_bind_group(self.group, &self.composite_group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+
+    /// Draws the shading set opaque into `pass` (the game's colour target and depth), the
+    /// alternative to the order-independent blend.
+    pub fn draw_opaque(&self, pass: &mut wgpu::RenderPass<'_>) {
+        self.draw_strips(pass, &self.pipelines.opaque, &self.receiver_group);
+    }
+
+    /// Makes the frame targets `size` pixels (after the game's window is resized).
+    pub fn resize(&mut self, device: &wgpu::Device, size: (u32, u32)) {
+        (self.accum, self.revealage, self.composite_group) = frame_targets(device, &self.layouts.composite, size);
+    }
+
+    fn draw_strips(&self, pass: &mut wgpu::RenderPass<'_>, pipeline: &wgpu::RenderPipeline, group: &wgpu::BindGroup) {
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(self.group, group, &[]);
+        for (slot, (name, format)) in STREAMS.iter().enumerate() {
+            let a = self.desc.attribute(name).expect("checked when the renderer was built");
+            pass.set_vertex_buffer(slot as u32, self.buffer.slice(a.offset..a.offset + format.size() * a.count as u64));
+        }
+        let ix = self.desc.indices.as_ref().expect("checked when the renderer was built");
+        pass.set_index_buffer(self.buffer.slice(ix.offset..ix.offset + 4 * ix.count as u64), wgpu::IndexFormat::Uint32);
+        pass.draw_indexed(0..ix.count, 0, 0..1);
+    }
+}
+
+impl HairUniform {
+    /// A uniform with nothing set but the opacity maps' resolution (before the first frame).
+    fn zeroed_for(resolution: u32) -> HairUniform {
+        HairUniform { resolution, ..bytemuck::Zeroable::zeroed() }
+    }
+}
+
+fn color_attachment(view: &wgpu::TextureView, clear: wgpu::Color) -> Option<wgpu::RenderPassColorAttachment<'_>> {
+    Some(wgpu::RenderPassColorAttachment {
+        view,
+        depth_slice: None,
+        resolve_target: None,
+        ops: wgpu::Operations { load: wgpu::LoadOp::Clear(clear), store: wgpu::StoreOp::Store },
+    })
+}
+
+/// The order-independent blend's targets of `size` and the composite's bind group over them.
+fn frame_targets(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    size: (u32, u32),
+) -> (wgpu::TextureView, wgpu::TextureView, wgpu::BindGroup) {
+    let accum = texture(device, size, ACCUM, "hikage hair accumulation").create_view(&Default::default());
+    let revealage = texture(device, size, REVEALAGE, "hikage hair revealage").create_view(&Default::default());
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("hikage hair composite"),
+        layout,
+        entries: &[view_entry(3, &accum), view_entry(4, &revealage)],
+    });
+    (accum, revealage, group)
+}
+
+fn pipelines(device: &wgpu::Device, wgsl: &str, layouts: &Layouts, options: &HairOptions) -> Pipelines {
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("hikage hair"),
+        source: wgpu::ShaderSource::Wgsl(wgsl.into()),
+    });
+    let attributes: Vec<[wgpu::VertexAttribute; 1]> = STREAMS
+        .iter()
+        .enumerate()
+        .map(|(location, &(_, format))| [wgpu::VertexAttribute { format, offset: 0, shader_location: location as u32 }])
+        .collect();
+    let buffers: Vec<Option<wgpu::VertexBufferLayout>> = STREAMS
+        .iter()
+        .zip(&attributes)
+        .map(|(&(_, format), a)| {
+            Some(wgpu::VertexBufferLayout {
+                array_stride: format.size(),
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: a,
+            })
+        })
+        .collect();
+    let add = wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    };
+    let keep_inverse = wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::Zero,
+        dst_factor: wgpu::BlendFactor::OneMinusSrc,
+        operation: wgpu::BlendOperation::Add,
+    };
+    let target = |format, blend| Some(wgpu::ColorTargetState { format, blend, write_mask: wgpu::ColorWrites::ALL });
+    let depth = |format, write, compare| wgpu::DepthStencilState {
+        format,
+        depth_write_enabled: Some(write),
+        depth_compare: Some(compare),
+        stencil: Default::default(),
+        bias: Default::default(),
+    };
+    let pipeline = |layout: &wgpu::BindGroupLayout,
+                    (vs, fs): (&str, &str),
+                    strips: bool,
+                    targets: &[Option<wgpu::ColorTargetState>],
+                    depth_stencil: Option<wgpu::DepthStencilState>| {
+        let pipeline_layout = gpu::pipeline_layout(device, options.group, layout);
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(fs),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some(vs),
+                compilation_options: Default::default(),
+                buffers: if strips { &buffers } else { &[] },
+            },
+            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+            depth_stencil,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some(fs),
+                compilation_options: Default::default(),
+                targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    };
+    let scene_depth = |write| options.depth_format.map(|f| depth(f, write, wgpu::CompareFunction::Less));
+    Pipelines {
+        depth: pipeline(
+            &layouts.light,
+            ("hair_vs_light", "hair_fs_depth"),
+            true,
+            &[target(DEPTH_MAP, None)],
+            Some(depth(wgpu::TextureFormat::Depth32Float, true, wgpu::CompareFunction::Less)),
+        ),
+        opacity: pipeline(
+            &layouts.opacity,
+            ("hair_vs_light", "hair_fs_opacity"),
+            true,
+            &[target(LAYERS, Some(wgpu::BlendState { color: add, alpha: add }))],
+            None,
+        ),
+        oit: pipeline(
+            &layouts.receiver,
+            ("hair_vs_camera", "hair_fs_oit"),
+            true,
+            &[
+                target(ACCUM, Some(wgpu::BlendState { color: add, alpha: add })),
+                target(REVEALAGE, Some(wgpu::BlendState { color: keep_inverse, alpha: keep_inverse })),
+            ],
+            scene_depth(false),
+        ),
+        opaque: pipeline(
+            &layouts.receiver,
+            ("hair_vs_camera", "hair_fs_opaque"),
+            true,
+            &[target(options.color_format, None)],
+            scene_depth(true),
+        ),
+        composite: pipeline(
+            &layouts.composite,
+            ("hair_vs_composite", "hair_fs_composite"),
+            false,
+            &[target(options.color_format, Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING))],
+            None,
+        ),
+    }
+}

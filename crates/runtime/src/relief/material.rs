@@ -1,0 +1,377 @@
+//! [`ReliefMaterial`]: relief mapping with depth-map shadows and ambient occlusion on any mesh
+//! with tangents, and [`relief_material_shade`], its CPU reference.
+
+use glam::{Mat4, Vec2, Vec3, Vec4};
+
+use super::{RELIEF_WGSL, Reads, ReliefMaps, ReliefUniform, Tracer};
+use crate::error::RuntimeError;
+use crate::gpu;
+use crate::upload::GpuBundle;
+
+const MATERIAL_WGSL: &str = include_str!("../shaders/relief_material.wgsl");
+
+/// One vertex of a mesh a [`ReliefMaterial`] draws: the layout of the vertex buffer given to
+/// [`ReliefMaterial::draw`] (48 bytes, as glTF's `POSITION`, `NORMAL`, `TANGENT`, `TEXCOORD_0`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ReliefVertex {
+    /// Mesh-space position.
+    pub position: [f32; 3],
+    /// Unit normal.
+    pub normal: [f32; 3],
+    /// `xyz`: unit tangent along +u; `w`: ±1, the bitangent (along +v) is
+    /// `w · cross(normal, tangent)`.
+    pub tangent: [f32; 4],
+    /// Texture coordinates: one relief tile per unit.
+    pub uv: [f32; 2],
+}
+
+/// What changes from frame to frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReliefFrame {
+    /// World → clip (wgpu: depth 0..1).
+    pub view_proj: Mat4,
+    /// Mesh space → world (rotation, translation, uniform scale).
+    pub model: Mat4,
+    /// The camera's position in world space, for a perspective camera.
+    pub eye: Vec3,
+    /// For an orthographic camera: its unit view direction (world), used instead of `eye`.
+    pub view_direction: Option<Vec3>,
+    /// Unit direction toward a directional light, world space.
+    pub light: Vec3,
+    /// Linear RGB of the light.
+    pub light_color: Vec3,
+    /// Linear RGB of the ambient light, scaled by the ambient occlusion's open share.
+    pub ambient: Vec3,
+    /// Linear RGB albedo.
+    pub albedo: Vec3,
+    /// World size of one relief tile (one unit of uv) along the tangent and the bitangent.
+    pub tile: Vec2,
+    /// The tracer and its setting.
+    pub tracer: Tracer,
+    /// Depth-map shadows.
+    pub shadows: bool,
+    /// Ambient occlusion over every `ao_stride`-th sample direction; 0 turns it off.
+    pub ao_stride: u32,
+    /// Depth (share of the relief's thickness) a stored hit may lie above a point that still
+    /// counts as lit.
+    pub bias: f32,
+}
+
+impl Default for ReliefFrame {
+    fn default() -> ReliefFrame {
+        ReliefFrame {
+            view_proj: Mat4::IDENTITY,
+            model: Mat4::IDENTITY,
+            eye: Vec3::ZERO,
+            view_direction: None,
+            light: Vec3::new(0.5, 0.5, 0.5).normalize(),
+            light_color: Vec3::ONE,
+            ambient: Vec3::splat(0.3),
+            albedo: Vec3::new(0.85, 0.78, 0.68),
+            tile: Vec2::ONE,
+            tracer: Tracer::Combined { margin: 0.1, start_level: 3 },
+            shadows: true,
+            ao_stride: 16,
+            bias: 0.02,
+        }
+    }
+}
+
+/// The `ReliefMaterialUniform` of the material WGSL, as it is in the uniform buffer (240 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ReliefMaterialUniform {
+    /// World → clip, column-major.
+    pub view_proj: [[f32; 4]; 4],
+    /// Mesh space → world, column-major.
+    pub model: [[f32; 4]; 4],
+    /// `w = 1`: the camera's position; `w = 0`: an orthographic camera's view direction.
+    pub eye: [f32; 4],
+    /// `xyz`: unit direction toward the light.
+    pub light: [f32; 4],
+    /// Light RGB.
+    pub light_color: [f32; 4],
+    /// Ambient RGB.
+    pub ambient: [f32; 4],
+    /// Albedo RGB.
+    pub albedo: [f32; 4],
+    /// World size of one tile along the tangent and the bitangent.
+    pub tile: [f32; 2],
+    /// Ambient occlusion stride (0: off).
+    pub ao_stride: u32,
+    /// 1: shadows.
+    pub shadows: u32,
+    /// Shadow and occlusion bias.
+    pub bias: f32,
+    /// Padding.
+    pub _pad: [u32; 3],
+}
+
+impl ReliefMaterialUniform {
+    /// The uniform of `frame`.
+    pub fn new(frame: &ReliefFrame) -> ReliefMaterialUniform {
+        ReliefMaterialUniform {
+            view_proj: frame.view_proj.to_cols_array_2d(),
+            model: frame.model.to_cols_array_2d(),
+            eye: match frame.view_direction {
+                Some(d) => d.normalize().extend(0.0),
+                None => frame.eye.extend(1.0),
+            }
+            .to_array(),
+            light: frame.light.normalize().extend(0.0).to_array(),
+            light_color: frame.light_color.extend(0.0).to_array(),
+            ambient: frame.ambient.extend(0.0).to_array(),
+            albedo: frame.albedo.extend(1.0).to_array(),
+            tile: frame.tile.to_array(),
+            ao_stride: frame.ao_stride,
+            shadows: u32::from(frame.shadows),
+            bias: frame.bias,
+            _pad: [0; 3],
+        }
+    }
+}
+
+/// How the material's pipeline is built.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReliefOptions {
+    /// The colour target (format, blending).
+    pub color: wgpu::ColorTargetState,
+    /// The depth attachment's format, if the pass has one (tested with `Less`, written).
+    pub depth_format: Option<wgpu::TextureFormat>,
+    /// A second colour target at location 1 receiving `(1 lit / 0 shadowed, 1, ambient
+    /// occlusion's open share, hit depth)`.
+    pub visibility_format: Option<wgpu::TextureFormat>,
+    /// Back faces culled (closed meshes) or drawn.
+    pub cull_mode: Option<wgpu::Face>,
+    /// The bind group index of the material's group.
+    pub group: u32,
+}
+
+impl ReliefOptions {
+    /// Draw into an unblended `color_format` target, no depth, back faces culled, group 0.
+    pub fn new(color_format: wgpu::TextureFormat) -> ReliefOptions {
+        ReliefOptions {
+            color: wgpu::ColorTargetState { format: color_format, blend: None, write_mask: wgpu::ColorWrites::ALL },
+            depth_format: None,
+            visibility_format: None,
+            cull_mode: Some(wgpu::Face::Back),
+            group: 0,
+        }
+    }
+}
+
+/// Relief mapping (seed 003) as a material for the game's own meshes: per pixel the view ray
+/// is taken into the relief's texel space through the mesh's tangent frame and traced from the
+/// depth map's estimate (or by another [`Tracer`]), then lit with depth-map shadows and ambient
+/// occlusion from the same maps.
+///
+/// Built from a `Relief` asset (its max-mip pyramid comes with it). The mesh is the game's:
+/// vertices laid out as [`ReliefVertex`], a `u32` index buffer.
+///
+/// ```no_run
+/// # fn frame(device: &wgpu::Device, queue: &wgpu::Queue, pass: &mut wgpu::RenderPass<'_>, vertices: &wgpu::Buffer, indices: &wgpu::Buffer, count: u32, view_proj: hikage_runtime::glam::Mat4) -> Result<(), hikage_runtime::RuntimeError> {
+/// use hikage_runtime::relief::{ReliefFrame, ReliefMaterial, ReliefOptions};
+/// use hikage_runtime::{CpuBundle, GpuBundle, glam::{Vec2, Vec3}, wgpu};
+///
+/// let cpu = CpuBundle::read_ids("bundle".as_ref(), &["relief_bricks.relief"])?;
+/// let gpu = GpuBundle::upload(device, queue, &cpu)?;
+/// let bricks = ReliefMaterial::new(device, queue, &gpu, "relief_bricks.relief", &ReliefOptions::new(wgpu::TextureFormat::Rgba8UnormSrgb))?;
+/// let eye = Vec3::new(0.0, 2.0, 5.0);
+/// bricks.update(queue, &ReliefFrame { view_proj, eye, tile: Vec2::splat(1.0), ..ReliefFrame::default() });
+/// bricks.draw(pass, vertices.slice(..), indices.slice(..), count);
+/// # Ok(()) }
+/// ```
+#[derive(Debug)]
+pub struct ReliefMaterial {
+    wgsl: String,
+    layout: wgpu::BindGroupLayout,
+    bind_group: wgpu::BindGroup,
+    tracing: wgpu::Buffer,
+    uniform: wgpu::Buffer,
+    pipeline: wgpu::RenderPipeline,
+    group: u32,
+    statics: ReliefUniform,
+}
+
+impl ReliefMaterial {
+    /// Builds the material of `relief` (a `Relief` asset of `gpu`, with its max-mip pyramid).
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        gpu: &GpuBundle,
+        relief: &str,
+        options: &ReliefOptions,
+    ) -> Result<ReliefMaterial, RuntimeError> {
+        let depth = gpu.texture(relief)?;
+        let settings = depth.asset.settings.relief().ok_or_else(|| RuntimeError::Asset {
+            asset: relief.to_string(),
+            message: format!("expected a relief asset, found a {}", depth.asset.kind.name()),
+        })?;
+        let heights = gpu.texture(&settings.max_mip)?;
+        let statics = ReliefUniform {
+            size: [heights.desc.width, heights.desc.height],
+            depth_size: [depth.desc.width, depth.desc.height],
+            levels: heights.desc.levels,
+            theta_rows: settings.theta,
+            phi_cols: settings.phi,
+            thickness: settings.depth_scale * heights.desc.width as f32,
+            ..ReliefUniform::default()
+        };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("hikage relief"),
+            entries: &[
+                gpu::texture_entry(0, wgpu::TextureViewDimension::D2, false),
+                gpu::texture_entry(1, wgpu::TextureViewDimension::D2Array, false),
+                gpu::uniform_entry(2),
+                gpu::uniform_entry(3),
+            ],
+        });
+        let tracing = gpu::uniform_buffer(device, queue, "hikage relief tracer", &statics);
+        let uniform = gpu::uniform_buffer(
+            device,
+            queue,
+            "hikage relief material",
+            &ReliefMaterialUniform::new(&ReliefFrame::default()),
+        );
+        let bind_group = gpu::checked(device, relief, || {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("hikage relief"),
+                layout: &layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&heights.view) },
+                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&depth.view) },
+                    wgpu::BindGroupEntry { binding: 2, resource: tracing.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 3, resource: uniform.as_entire_binding() },
+                ],
+            })
+        })?;
+        let wgsl = gpu::at_group(&format!("{RELIEF_WGSL}\n{MATERIAL_WGSL}"), options.group);
+        let pipeline = gpu::checked(device, relief, || {
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("hikage relief"),
+                source: wgpu::ShaderSource::Wgsl(wgsl.as_str().into()),
+            });
+            let pipeline_layout = gpu::pipeline_layout(device, options.group, &layout);
+            let fs = if options.visibility_format.is_some() { "relief_fs_visibility" } else { "relief_fs" };
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("hikage relief"),
+                layout: Some(&pipeline_layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("relief_vs"),
+                    compilation_options: Default::default(),
+                    buffers: &[Some(wgpu::VertexBufferLayout {
+                        array_stride: std::mem::size_of::<ReliefVertex>() as u64,
+                        step_mode: wgpu::VertexStepMode::Vertex,
+                        attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 3 => Float32x2],
+                    })],
+                },
+                primitive: wgpu::PrimitiveState { cull_mode: options.cull_mode, ..Default::default() },
+                depth_stencil: options.depth_format.map(gpu::depth_state),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(fs),
+                    compilation_options: Default::default(),
+                    targets: &gpu::targets(options.color.clone(), options.visibility_format),
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        })?;
+        Ok(ReliefMaterial { wgsl, layout, bind_group, tracing, uniform, pipeline, group: options.group, statics })
+    }
+
+    /// The material's WGSL with its bindings at the chosen group, for a game's own shaders:
+    /// `relief_material_shade(...)`, the tracers, `relief_lit`, `relief_ambient_occlusion`.
+    pub fn wgsl(&self) -> &str {
+        &self.wgsl
+    }
+
+    /// The layout of the material's bind group.
+    pub fn layout(&self) -> &wgpu::BindGroupLayout {
+        &self.layout
+    }
+
+    /// The material's bind group (max-mip heights, depth maps, tracer and material uniforms).
+    pub fn bind_group(&self) -> &wgpu::BindGroup {
+        &self.bind_group
+    }
+
+    /// Writes both uniforms for `frame`; the next submitted draw uses them.
+    pub fn update(&self, queue: &wgpu::Queue, frame: &ReliefFrame) {
+        queue.write_buffer(&self.tracing, 0, bytemuck::bytes_of(&self.statics.with_tracer(frame.tracer)));
+        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&ReliefMaterialUniform::new(frame)));
+    }
+
+    /// Draws the triangles of `indices` (u32) over `vertices` ([`ReliefVertex`]) into `pass`.
+    pub fn draw(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        vertices: wgpu::BufferSlice<'_>,
+        indices: wgpu::BufferSlice<'_>,
+        count: u32,
+    ) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(self.group, &self.bind_group, &[]);
+        pass.set_vertex_buffer(0, vertices);
+        pass.set_index_buffer(indices, wgpu::IndexFormat::Uint32);
+        pass.draw_indexed(0..count, 0, 0..1);
+    }
+}
+
+/// What the material computes at one pixel, from [`relief_material_shade`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReliefPixel {
+    /// The view ray's hit, its length in texels (`None`: viewed from below the surface).
+    pub s: Option<f32>,
+    /// The hit's depth (0 top, 1 bottom).
+    pub depth: f32,
+    /// Lit by the light.
+    pub lit: bool,
+    /// Ambient occlusion's open share.
+    pub ao: f32,
+}
+
+/// The CPU reference of `relief_material_shade`: the material at a point of the mesh (world
+/// position, interpolated normal, tangent and uv) with `maps` and the material uniform.
+pub fn relief_material_shade(
+    maps: &ReliefMaps,
+    tracer: Tracer,
+    material: &ReliefMaterialUniform,
+    world: Vec3,
+    normal: Vec3,
+    tangent: Vec4,
+    uv: Vec2,
+) -> ReliefPixel {
+    let n = normal.normalize();
+    let t = (tangent.truncate() - n * tangent.truncate().dot(n)).normalize();
+    let b = tangent.w * n.cross(t);
+    let eye = Vec4::from(material.eye);
+    let d = if eye.w > 0.5 { (world - eye.truncate()).normalize() } else { eye.truncate() };
+    let size = Vec2::new(maps.max_mip.width() as f32, maps.max_mip.height() as f32);
+    let tile = Vec2::from(material.tile);
+    let scale = Vec3::new(size.x / tile.x, size.y / tile.y, size.x / tile.x);
+    let dir = (Vec3::new(d.dot(t), d.dot(b), -d.dot(n)) * scale).normalize();
+    if dir.z <= 1e-4 {
+        return ReliefPixel { s: None, depth: 0.0, lit: false, ao: 1.0 };
+    }
+    let origin = uv * size;
+    let ray = maps.ray(origin.to_array(), dir.to_array());
+    let mut reads = Reads::default();
+    let s = maps.trace(tracer, &ray, &mut reads);
+    let p = [origin.x + s * dir.x, origin.y + s * dir.y, s * ray.dz()];
+    let l = Vec3::from_slice(&material.light[..3]);
+    let lt = (Vec3::new(l.dot(t), l.dot(b), l.dot(n)) * scale).normalize();
+    let mut lit = lt.z > 0.0;
+    if material.shadows == 1 && lit {
+        lit = maps.lit(p, lt.to_array(), material.bias, &mut reads);
+    }
+    let ao = if material.ao_stride > 0 {
+        maps.ambient_occlusion(p, material.ao_stride, material.bias, &mut reads)
+    } else {
+        1.0
+    };
+    ReliefPixel { s: Some(s), depth: p[2], lit, ao }
+}
