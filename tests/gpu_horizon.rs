@@ -10,10 +10,10 @@ use hikage_runtime::glam::camera::rh::proj::directx;
 use hikage_runtime::glam::camera::rh::view::look_at_mat4;
 use hikage_runtime::glam::{Mat4, Vec2, Vec3, Vec4};
 use hikage_runtime::horizon::{
-    HorizonMap, Sun, SurfaceFrame, SurfaceOptions, SurfaceReference, SurfaceShadows, TerrainFrame, TerrainOptions,
-    TerrainShadows, horizon_filterable, horizon_sun_visible,
+    HorizonMap, Sun, SurfaceFrame, SurfaceReference, SurfaceShadows, TerrainFrame, TerrainShadows, horizon_filterable,
+    horizon_sun_visible,
 };
-use hikage_runtime::{CpuBundle, GpuBundle, wgpu};
+use hikage_runtime::{CpuBundle, DrawOptions, GpuBundle, wgpu};
 use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT, Headless, VISIBILITY_FORMAT};
 use hikage_scenes::horizon_sphere::{AnalyticSphere, shadowed_fraction};
 use hikage_scenes::raster::{interpolate, rasterise};
@@ -35,11 +35,12 @@ fn bundle() -> PathBuf {
     )
 }
 
-fn surface_options() -> SurfaceOptions {
-    SurfaceOptions {
+fn surface_options() -> DrawOptions {
+    DrawOptions {
         depth_format: Some(DEPTH_FORMAT),
         visibility_format: Some(VISIBILITY_FORMAT),
-        ..SurfaceOptions::new(COLOR_FORMAT)
+        cull_mode: Some(wgpu::Face::Back),
+        ..DrawOptions::new(COLOR_FORMAT)
     }
 }
 
@@ -229,10 +230,10 @@ fn terrain_matches_a_brute_force_lit_mask_on_anisotropic_texels() {
     let cpu = CpuBundle::read_prefix(&dir, "terrain.").unwrap();
     let Some(g) = gpu("terrain_matches_a_brute_force_lit_mask_on_anisotropic_texels") else { return };
     let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
-    let options = TerrainOptions {
+    let options = DrawOptions {
         depth_format: Some(DEPTH_FORMAT),
         visibility_format: Some(VISIBILITY_FORMAT),
-        ..TerrainOptions::new(COLOR_FORMAT)
+        ..DrawOptions::new(COLOR_FORMAT)
     };
     let terrain =
         TerrainShadows::new(&g.device, &g.queue, &gb, "terrain.horizon", Some("terrain.ao"), &options).unwrap();
@@ -300,7 +301,7 @@ fn clamped_terrain_is_sampled_without_wrap() {
     let Some(g) = gpu("clamped_terrain_is_sampled_without_wrap") else { return };
     let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
     let terrain =
-        TerrainShadows::new(&g.device, &g.queue, &gb, "terrain.horizon", None, &TerrainOptions::new(COLOR_FORMAT))
+        TerrainShadows::new(&g.device, &g.queue, &gb, "terrain.horizon", None, &DrawOptions::new(COLOR_FORMAT))
             .unwrap();
     let (w, h) = (512usize, 512usize);
     // Direction 8 of 32 (φ = 90°, +v) at its texel-space azimuth, a quarter texel from the left

@@ -1,6 +1,6 @@
 //! Relief mapping on the GPU against the CPU reference of the same tracers.
 
-use hikage_runtime::{CpuBundle, GpuBundle};
+use hikage_runtime::{CpuBundle, DrawOptions, GpuBundle};
 
 use crate::util::{Dir, gpu};
 
@@ -84,7 +84,7 @@ fn relief_quad_render_matches_the_cpu_tracers() {
 fn relief_material_on_a_curved_mesh_matches_the_cpu() {
     use hikage_runtime::glam::{Vec2, Vec3, Vec4};
     use hikage_runtime::relief::{
-        ReliefFrame, ReliefMaps, ReliefMaterial, ReliefMaterialUniform, ReliefOptions, Tracer, relief_material_shade,
+        ReliefFrame, ReliefMaps, ReliefMaterial, ReliefMaterialUniform, Tracer, relief_material_shade,
     };
     use hikage_runtime::wgpu;
     use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT, VISIBILITY_FORMAT};
@@ -105,10 +105,11 @@ fn relief_material_on_a_curved_mesh_matches_the_cpu() {
     let indices = mesh.read_indices().unwrap();
     let Some(g) = gpu("relief_material_on_a_curved_mesh_matches_the_cpu") else { return };
     let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
-    let options = ReliefOptions {
+    let options = DrawOptions {
         depth_format: Some(DEPTH_FORMAT),
         visibility_format: Some(VISIBILITY_FORMAT),
-        ..ReliefOptions::new(COLOR_FORMAT)
+        cull_mode: Some(wgpu::Face::Back),
+        ..DrawOptions::new(COLOR_FORMAT)
     };
     let material = ReliefMaterial::new(&g.device, &g.queue, &gb, "relief_bricks.relief", &options).unwrap();
     let vbytes = hikage_runtime::bytemuck::cast_slice(&vertices);

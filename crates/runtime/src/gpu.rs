@@ -1,6 +1,7 @@
 //! What every component does with wgpu the same way: bind its group at the index the game
 //! chose, build a pipeline around it, hold a uniform, stand in for an optional texture.
 
+use crate::draw::DrawOptions;
 use crate::error::RuntimeError;
 
 /// WGSL `source` with its bindings moved to `@group(group)`. The shader files declare their
@@ -136,4 +137,87 @@ pub(crate) fn checked<T>(device: &wgpu::Device, what: &str, create: impl FnOnce(
         Some(e) => Err(RuntimeError::Wgpu { asset: what.to_string(), message: e.to_string() }),
         None => Ok(value),
     }
+}
+
+/// What a drawing component holds: its WGSL (bindings at the game's group), its bind group and
+/// layout, and the pipeline built for the game's targets.
+#[derive(Debug)]
+pub(crate) struct Program {
+    pub wgsl: String,
+    pub layout: wgpu::BindGroupLayout,
+    pub bind_group: wgpu::BindGroup,
+    pub pipeline: wgpu::RenderPipeline,
+    pub group: u32,
+}
+
+/// The entry points of a component's pipeline: the vertex stage, and the fragment stage without
+/// and with the visibility target.
+pub(crate) struct Stages<'a> {
+    pub vs: &'a str,
+    pub fs: &'a str,
+    pub fs_visibility: &'a str,
+}
+
+impl Program {
+    /// Builds the pipeline of `source` (bindings at `@group(0)`, moved to the options' group)
+    /// around `layout` and `bind_group`, for `options`' targets, inside a validation scope.
+    pub fn new(
+        device: &wgpu::Device,
+        asset: &str,
+        source: String,
+        (layout, bind_group): (wgpu::BindGroupLayout, wgpu::BindGroup),
+        stages: Stages,
+        buffers: &[Option<wgpu::VertexBufferLayout>],
+        options: &DrawOptions,
+    ) -> Result<Program, RuntimeError> {
+        let wgsl = at_group(&source, options.group);
+        let pipeline = checked(device, asset, || {
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(stages.vs),
+                source: wgpu::ShaderSource::Wgsl(wgsl.as_str().into()),
+            });
+            let pipeline_layout = pipeline_layout(device, options.group, &layout);
+            let fs = if options.visibility_format.is_some() { stages.fs_visibility } else { stages.fs };
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(fs),
+                layout: Some(&pipeline_layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some(stages.vs),
+                    compilation_options: Default::default(),
+                    buffers,
+                },
+                primitive: wgpu::PrimitiveState { cull_mode: options.cull_mode, ..Default::default() },
+                depth_stencil: options.depth_format.map(depth_state),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(fs),
+                    compilation_options: Default::default(),
+                    targets: &targets(options.color.clone(), options.visibility_format),
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        })?;
+        Ok(Program { wgsl, layout, bind_group, pipeline, group: options.group })
+    }
+
+    /// Sets the pipeline and the bind group at the program's group.
+    pub fn bind(&self, pass: &mut wgpu::RenderPass<'_>) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(self.group, &self.bind_group, &[]);
+    }
+}
+
+/// A sampler binding: filtering when the texture it samples can be filtered.
+pub(crate) fn sampler_entry(binding: u32, filtering: bool) -> wgpu::BindGroupLayoutEntry {
+    entry(
+        binding,
+        wgpu::BindingType::Sampler(if filtering {
+            wgpu::SamplerBindingType::Filtering
+        } else {
+            wgpu::SamplerBindingType::NonFiltering
+        }),
+    )
 }

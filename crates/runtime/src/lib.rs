@@ -29,15 +29,15 @@
 //! A frame of terrain:
 //!
 //! ```no_run
-//! use hikage_runtime::horizon::{Sun, TerrainFrame, TerrainOptions, TerrainShadows};
-//! use hikage_runtime::{CpuBundle, GpuBundle, glam::{Mat4, Vec3}, wgpu};
+//! use hikage_runtime::horizon::{Sun, TerrainFrame, TerrainShadows};
+//! use hikage_runtime::{CpuBundle, DrawOptions, GpuBundle, glam::{Mat4, Vec3}, wgpu};
 //!
 //! fn frame(device: &wgpu::Device, queue: &wgpu::Queue, view_proj: Mat4) -> Result<(), hikage_runtime::RuntimeError> {
 //!     // Load (a loader thread could do the first line), upload, build the component.
 //!     let cpu = CpuBundle::read_prefix("bundle".as_ref(), "terrain.")?;
 //!     let gpu = GpuBundle::upload(device, queue, &cpu)?;
 //!     let format = wgpu::TextureFormat::Rgba8UnormSrgb;
-//!     let options = TerrainOptions { depth_format: Some(wgpu::TextureFormat::Depth32Float), ..TerrainOptions::new(format) };
+//!     let options = DrawOptions { depth_format: Some(wgpu::TextureFormat::Depth32Float), ..DrawOptions::new(format) };
 //!     let terrain = TerrainShadows::new(device, queue, &gpu, "terrain.horizon", Some("terrain.ao"), &options)?;
 //!
 //!     // Targets of 640 × 360.
@@ -78,6 +78,7 @@
 //! }
 //! ```
 
+mod draw;
 mod error;
 mod gpu;
 pub mod hair;
@@ -88,6 +89,7 @@ pub mod shadow_fit;
 mod upload;
 
 pub use bytemuck;
+pub use draw::DrawOptions;
 pub use error::RuntimeError;
 pub use glam;
 pub use load::{CpuAsset, CpuBundle, CpuPayload};

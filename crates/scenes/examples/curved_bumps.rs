@@ -10,13 +10,11 @@
 //! cargo run --release -p hikage-scenes --example curved_bumps -- bundle docs/images
 //! ```
 
-use std::path::PathBuf;
-
 use hikage_runtime::glam::camera::rh::proj::directx;
 use hikage_runtime::glam::camera::rh::view::look_at_mat4;
 use hikage_runtime::glam::{Mat4, Vec3};
-use hikage_runtime::horizon::{SurfaceFrame, SurfaceOptions, SurfaceReference, SurfaceShadows, horizon_filterable};
-use hikage_runtime::{CpuBundle, GpuBundle, wgpu};
+use hikage_runtime::horizon::{SurfaceFrame, SurfaceReference, SurfaceShadows, horizon_filterable};
+use hikage_runtime::{DrawOptions, wgpu};
 use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT, Frame, Headless, VISIBILITY_FORMAT};
 use hikage_scenes::horizon_sphere::{AnalyticSphere, shadowed_fraction};
 
@@ -31,18 +29,14 @@ fn draw(g: &Headless, surface: &SurfaceShadows, view_proj: Mat4, light: Vec3, co
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut args = std::env::args().skip(1);
-    let bundle = PathBuf::from(args.next().unwrap_or_else(|| "bundle".into()));
-    let out = PathBuf::from(args.next().unwrap_or_else(|| "target/curved_bumps".into()));
-    std::fs::create_dir_all(&out)?;
-    let cpu = CpuBundle::read_ids(&bundle, &["sphere", "torus", "cylinders.horizon", "reptile.horizon"])?;
-    let g = Headless::new()?;
-    println!("adapter: {}", g.describe());
-    let gb = GpuBundle::upload(&g.device, &g.queue, &cpu)?;
-    let options = SurfaceOptions {
+    let (bundle, out) = hikage_scenes::example_paths("curved_bumps")?;
+    let (cpu, g, gb) =
+        hikage_scenes::open_bundle(&bundle, &["sphere", "torus", "cylinders.horizon", "reptile.horizon"])?;
+    let options = DrawOptions {
         depth_format: Some(DEPTH_FORMAT),
         visibility_format: Some(VISIBILITY_FORMAT),
-        ..SurfaceOptions::new(COLOR_FORMAT)
+        cull_mode: Some(wgpu::Face::Back),
+        ..DrawOptions::new(COLOR_FORMAT)
     };
     let sphere = AnalyticSphere::SAMPLE;
     let torus_view = directx::orthographic(-150.0, 150.0, -150.0, 150.0, 10.0, 600.0)

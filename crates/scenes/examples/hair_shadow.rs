@@ -12,7 +12,6 @@
 //! cargo run --release -p hikage-scenes --example hair_shadow -- bundle docs/images
 //! ```
 
-use std::path::PathBuf;
 use std::time::Instant;
 
 use hikage_runtime::glam::Vec3;
@@ -20,24 +19,18 @@ use hikage_runtime::glam::camera::rh::proj::directx;
 use hikage_runtime::glam::camera::rh::view::{look_at_mat4, look_to_mat4};
 use hikage_runtime::hair::reference::StripArrays;
 use hikage_runtime::hair::{HairFrame, HairOptions, HairRenderer, HairSet};
-use hikage_runtime::{CpuBundle, GpuBundle, wgpu};
+use hikage_runtime::wgpu;
 use hikage_scenes::hair_scene::{
     Composite, Ground, HairBlend, camera_reference, high_frequency_energy, read_opacity_maps, render_frame,
     srgb_to_linear,
 };
-use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT, Headless};
+use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT};
 
 const RESOLUTION: u32 = 256;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut args = std::env::args().skip(1);
-    let bundle = PathBuf::from(args.next().unwrap_or_else(|| "bundle".into()));
-    let out = PathBuf::from(args.next().unwrap_or_else(|| "target/hair_shadow".into()));
-    std::fs::create_dir_all(&out)?;
-    let cpu = CpuBundle::read_ids(&bundle, &["head.strips", "head_auto.strips"])?;
-    let g = Headless::new()?;
-    println!("adapter: {}", g.describe());
-    let gb = GpuBundle::upload(&g.device, &g.queue, &cpu)?;
+    let (bundle, out) = hikage_scenes::example_paths("hair_shadow")?;
+    let (cpu, g, gb) = hikage_scenes::open_bundle(&bundle, &["head.strips", "head_auto.strips"])?;
     let (w, h) = (320u32, 240u32);
     let options = HairOptions {
         resolution: RESOLUTION,

@@ -9,24 +9,17 @@
 //! cargo run --release -p hikage-scenes --example relief_mesh -- bundle docs/images
 //! ```
 
-use std::path::PathBuf;
-
 use hikage_runtime::glam::camera::rh::proj::directx;
 use hikage_runtime::glam::camera::rh::view::look_at_mat4;
 use hikage_runtime::glam::{Vec2, Vec3};
-use hikage_runtime::relief::{ReliefFrame, ReliefMaterial, ReliefOptions, Tracer};
-use hikage_runtime::{CpuBundle, GpuBundle, bytemuck, wgpu};
-use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT, Headless, VISIBILITY_FORMAT};
+use hikage_runtime::relief::{ReliefFrame, ReliefMaterial, Tracer};
+use hikage_runtime::{DrawOptions, bytemuck, wgpu};
+use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT, VISIBILITY_FORMAT};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut args = std::env::args().skip(1);
-    let bundle = PathBuf::from(args.next().unwrap_or_else(|| "bundle".into()));
-    let out = PathBuf::from(args.next().unwrap_or_else(|| "target/relief_mesh".into()));
-    std::fs::create_dir_all(&out)?;
-    let cpu = CpuBundle::read_ids(&bundle, &["sphere", "relief_bricks.relief", "relief_spikes.relief"])?;
-    let g = Headless::new()?;
-    println!("adapter: {}", g.describe());
-    let gpu = GpuBundle::upload(&g.device, &g.queue, &cpu)?;
+    let (bundle, out) = hikage_scenes::example_paths("relief_mesh")?;
+    let (cpu, g, gpu) =
+        hikage_scenes::open_bundle(&bundle, &["sphere", "relief_bricks.relief", "relief_spikes.relief"])?;
 
     // The game's mesh: here the sphere, its tangent along P_u.
     let mesh = cpu.asset("sphere").and_then(|a| a.mesh()).ok_or("no sphere mesh")?;
@@ -39,10 +32,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let ibuf = g.buffer(4 * indices.len() as u64, wgpu::BufferUsages::INDEX, Some(bytemuck::cast_slice(&indices)));
 
-    let options = ReliefOptions {
+    let options = DrawOptions {
         depth_format: Some(DEPTH_FORMAT),
         visibility_format: Some(VISIBILITY_FORMAT),
-        ..ReliefOptions::new(COLOR_FORMAT)
+        cull_mode: Some(wgpu::Face::Back),
+        ..DrawOptions::new(COLOR_FORMAT)
     };
     let size = 320u32;
     let radius = 1.0 / 0.015;

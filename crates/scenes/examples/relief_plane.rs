@@ -9,12 +9,8 @@
 //! cargo run --release -p hikage-scenes --example relief_plane -- bundle docs/images
 //! ```
 
-use std::path::PathBuf;
-
 use hikage_runtime::glam::Vec3;
 use hikage_runtime::relief::{ReliefMaps, Tracer};
-use hikage_runtime::{CpuBundle, GpuBundle};
-use hikage_scenes::headless::Headless;
 use hikage_scenes::relief_plane::{PlaneView, render};
 
 /// Blue → green → yellow → red over `[0, 1]`.
@@ -28,15 +24,9 @@ fn heat(t: f32) -> [u8; 4] {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut args = std::env::args().skip(1);
-    let bundle = PathBuf::from(args.next().unwrap_or_else(|| "bundle".into()));
-    let out = PathBuf::from(args.next().unwrap_or_else(|| "target/relief_plane".into()));
-    std::fs::create_dir_all(&out)?;
-
-    let cpu = CpuBundle::read(&bundle)?;
-    let gpu = Headless::new()?;
-    println!("adapter: {}", gpu.describe());
-    let gb = GpuBundle::upload(&gpu.device, &gpu.queue, &cpu)?;
+    let (bundle, out) = hikage_scenes::example_paths("relief_plane")?;
+    let families = ["relief_fbm.relief", "relief_bricks.relief", "relief_spikes.relief"];
+    let (cpu, gpu, gb) = hikage_scenes::open_bundle(&bundle, &families)?;
     let (w, h) = (256u32, 176u32);
     let view = PlaneView {
         eye: Vec3::new(128.0, -12.0, 62.0),

@@ -9,30 +9,21 @@
 //! cargo run --release -p hikage-scenes --example terrain_sun -- bundle docs/images
 //! ```
 
-use std::path::PathBuf;
-
 use hikage_runtime::glam::Vec3;
 use hikage_runtime::glam::camera::rh::proj::directx;
 use hikage_runtime::glam::camera::rh::view::look_at_mat4;
-use hikage_runtime::horizon::{Sun, TerrainFrame, TerrainOptions, TerrainShadows};
-use hikage_runtime::{CpuBundle, GpuBundle, wgpu};
-use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT, Headless, VISIBILITY_FORMAT};
+use hikage_runtime::horizon::{Sun, TerrainFrame, TerrainShadows};
+use hikage_runtime::{DrawOptions, wgpu};
+use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT, VISIBILITY_FORMAT};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut args = std::env::args().skip(1);
-    let bundle = PathBuf::from(args.next().unwrap_or_else(|| "bundle".into()));
-    let out = PathBuf::from(args.next().unwrap_or_else(|| "target/terrain_sun".into()));
-    std::fs::create_dir_all(&out)?;
-
+    let (bundle, out) = hikage_scenes::example_paths("terrain_sun")?;
     // Only the terrain's assets are read and uploaded.
-    let cpu = CpuBundle::read_prefix(&bundle, "terrain.")?;
-    let g = Headless::new()?;
-    println!("adapter: {}", g.describe());
-    let gpu = GpuBundle::upload(&g.device, &g.queue, &cpu)?;
-    let options = TerrainOptions {
+    let (_, g, gpu) = hikage_scenes::open_bundle(&bundle, &["terrain.horizon", "terrain.ao"])?;
+    let options = DrawOptions {
         depth_format: Some(DEPTH_FORMAT),
         visibility_format: Some(VISIBILITY_FORMAT),
-        ..TerrainOptions::new(COLOR_FORMAT)
+        ..DrawOptions::new(COLOR_FORMAT)
     };
     let terrain = TerrainShadows::new(&g.device, &g.queue, &gpu, "terrain.horizon", Some("terrain.ao"), &options)?;
 

@@ -17,14 +17,27 @@ pub mod raster;
 pub mod relief_plane;
 pub mod shadow_scene;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use hikage_runtime::{CpuBundle, GpuBundle};
 
-/// What every example starts with: the bundle read and checked, a headless device, and the
-/// bundle uploaded to it. Prints the adapter.
-pub fn open_bundle(dir: &Path) -> Result<(CpuBundle, headless::Headless, GpuBundle), Box<dyn std::error::Error>> {
-    let cpu = CpuBundle::read(dir)?;
+/// The command line every example takes, `[BUNDLE] [OUT]`: the bundle (default `bundle`) and
+/// the directory the pictures go to (default `target/<name>`), created.
+pub fn example_paths(name: &str) -> Result<(PathBuf, PathBuf), Box<dyn std::error::Error>> {
+    let mut args = std::env::args().skip(1);
+    let bundle = PathBuf::from(args.next().unwrap_or_else(|| "bundle".into()));
+    let out = PathBuf::from(args.next().unwrap_or_else(|| format!("target/{name}")));
+    std::fs::create_dir_all(&out)?;
+    Ok((bundle, out))
+}
+
+/// What every example starts with: the assets `ids` (and the assets they name) read from the
+/// bundle in `dir`, a headless device, and those assets uploaded to it. Prints the adapter.
+pub fn open_bundle(
+    dir: &Path,
+    ids: &[&str],
+) -> Result<(CpuBundle, headless::Headless, GpuBundle), Box<dyn std::error::Error>> {
+    let cpu = CpuBundle::read_ids(dir, ids)?;
     let gpu = headless::Headless::new()?;
     println!("adapter: {}", gpu.describe());
     let uploaded = GpuBundle::upload(&gpu.device, &gpu.queue, &cpu)?;

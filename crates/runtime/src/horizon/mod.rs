@@ -24,8 +24,8 @@ mod terrain;
 use glam::{Vec2, Vec3};
 use hikage_bundle::{EdgeMode, HorizonSettings, TextureData, TextureDimension, TextureFormat};
 
-pub use surface::{SurfaceFrame, SurfaceOptions, SurfaceReference, SurfaceShadows, SurfaceUniform};
-pub use terrain::{Sun, TerrainFrame, TerrainOptions, TerrainShadows, TerrainUniform};
+pub use surface::{SurfaceFrame, SurfaceReference, SurfaceShadows, SurfaceUniform};
+pub use terrain::{Sun, TerrainFrame, TerrainShadows, TerrainUniform};
 
 /// WGSL of the horizon functions (no bindings); include it in a shader module. The components
 /// prepend it to their own WGSL.

@@ -10,6 +10,7 @@ use super::{
     HORIZON_WGSL, HorizonEncoding, HorizonMap, horizon_filterable, horizon_sampler, horizon_surface_light,
     horizon_surface_lit,
 };
+use crate::draw::DrawOptions;
 use crate::error::RuntimeError;
 use crate::gpu;
 use crate::load::CpuBundle;
@@ -94,34 +95,6 @@ pub struct SurfaceUniform {
     pub encoding: HorizonEncoding,
 }
 
-/// How the surface's pipeline is built.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SurfaceOptions {
-    /// The colour target (format, blending).
-    pub color: wgpu::ColorTargetState,
-    /// The depth attachment's format, if the pass has one (tested with `Less`, written).
-    pub depth_format: Option<wgpu::TextureFormat>,
-    /// A second colour target at location 1 receiving `(1 lit / 0 shadowed, 1, 0, 1)`.
-    pub visibility_format: Option<wgpu::TextureFormat>,
-    /// Back faces culled (closed meshes) or drawn.
-    pub cull_mode: Option<wgpu::Face>,
-    /// The bind group index of the surface's group.
-    pub group: u32,
-}
-
-impl SurfaceOptions {
-    /// Draw into an unblended `color_format` target, no depth, back faces culled, group 0.
-    pub fn new(color_format: wgpu::TextureFormat) -> SurfaceOptions {
-        SurfaceOptions {
-            color: wgpu::ColorTargetState { format: color_format, blend: None, write_mask: wgpu::ColorWrites::ALL },
-            depth_format: None,
-            visibility_format: None,
-            cull_mode: Some(wgpu::Face::Back),
-            group: 0,
-        }
-    }
-}
-
 /// A bump map on a curved mesh with seed 000's curvature-corrected horizon shadows.
 ///
 /// Built from a `Curvature` asset (the mesh with κ1, κ2, the principal directions and the
@@ -132,12 +105,12 @@ impl SurfaceOptions {
 ///
 /// ```no_run
 /// # fn frame(device: &wgpu::Device, queue: &wgpu::Queue, pass: &mut wgpu::RenderPass<'_>, view_proj: hikage_runtime::glam::Mat4) -> Result<(), hikage_runtime::RuntimeError> {
-/// use hikage_runtime::horizon::{SurfaceFrame, SurfaceOptions, SurfaceShadows};
-/// use hikage_runtime::{CpuBundle, GpuBundle, glam::Vec3, wgpu};
+/// use hikage_runtime::horizon::{SurfaceFrame, SurfaceShadows};
+/// use hikage_runtime::{CpuBundle, DrawOptions, GpuBundle, glam::Vec3, wgpu};
 ///
 /// let cpu = CpuBundle::read_ids("bundle".as_ref(), &["sphere", "cylinders.horizon"])?;
 /// let gpu = GpuBundle::upload(device, queue, &cpu)?;
-/// let options = SurfaceOptions::new(wgpu::TextureFormat::Rgba8UnormSrgb);
+/// let options = DrawOptions { cull_mode: Some(wgpu::Face::Back), ..DrawOptions::new(wgpu::TextureFormat::Rgba8UnormSrgb) };
 /// let sphere = SurfaceShadows::new(device, queue, &gpu, "sphere", "cylinders.horizon", &options)?;
 /// sphere.update(queue, &SurfaceFrame { view_proj, light: Vec3::new(-0.8, 0.25, 0.45).normalize(), ..SurfaceFrame::default() });
 /// sphere.draw(pass);
@@ -145,12 +118,8 @@ impl SurfaceOptions {
 /// ```
 #[derive(Debug)]
 pub struct SurfaceShadows {
-    wgsl: String,
-    layout: wgpu::BindGroupLayout,
-    bind_group: wgpu::BindGroup,
+    program: gpu::Program,
     uniform: wgpu::Buffer,
-    pipeline: wgpu::RenderPipeline,
-    group: u32,
     statics: SurfaceUniform,
     buffer: wgpu::Buffer,
     desc: MeshDesc,
@@ -165,7 +134,7 @@ impl SurfaceShadows {
         gpu: &GpuBundle,
         curvature: &str,
         horizon: &str,
-        options: &SurfaceOptions,
+        options: &DrawOptions,
     ) -> Result<SurfaceShadows, RuntimeError> {
         let mesh = gpu.mesh(curvature)?;
         check_streams(mesh)?;
@@ -189,14 +158,7 @@ impl SurfaceShadows {
             entries: &[
                 gpu::uniform_entry(0),
                 gpu::texture_entry(1, wgpu::TextureViewDimension::D3, filterable),
-                gpu::entry(
-                    2,
-                    wgpu::BindingType::Sampler(if filterable {
-                        wgpu::SamplerBindingType::Filtering
-                    } else {
-                        wgpu::SamplerBindingType::NonFiltering
-                    }),
-                ),
+                gpu::sampler_entry(2, filterable),
                 gpu::texture_entry(3, wgpu::TextureViewDimension::D2, false),
             ],
         });
@@ -214,7 +176,6 @@ impl SurfaceShadows {
                 ],
             })
         })?;
-        let wgsl = gpu::at_group(&format!("{HORIZON_WGSL}\n{SURFACE_WGSL}"), options.group);
         let attributes: Vec<[wgpu::VertexAttribute; 1]> = STREAMS
             .iter()
             .enumerate()
@@ -233,62 +194,32 @@ impl SurfaceShadows {
                 })
             })
             .collect();
-        let pipeline = gpu::checked(device, curvature, || {
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("hikage surface"),
-                source: wgpu::ShaderSource::Wgsl(wgsl.as_str().into()),
-            });
-            let pipeline_layout = gpu::pipeline_layout(device, options.group, &layout);
-            let fs = if options.visibility_format.is_some() { "surface_fs_visibility" } else { "surface_fs" };
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("hikage surface"),
-                layout: Some(&pipeline_layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("surface_vs"),
-                    compilation_options: Default::default(),
-                    buffers: &buffers,
-                },
-                primitive: wgpu::PrimitiveState { cull_mode: options.cull_mode, ..Default::default() },
-                depth_stencil: options.depth_format.map(gpu::depth_state),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some(fs),
-                    compilation_options: Default::default(),
-                    targets: &gpu::targets(options.color.clone(), options.visibility_format),
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        })?;
-        Ok(SurfaceShadows {
-            wgsl,
-            layout,
-            bind_group,
-            uniform,
-            pipeline,
-            group: options.group,
-            statics,
-            buffer: mesh.buffer.clone(),
-            desc: mesh.desc.clone(),
-        })
+        let program = gpu::Program::new(
+            device,
+            curvature,
+            format!("{HORIZON_WGSL}\n{SURFACE_WGSL}"),
+            (layout, bind_group),
+            gpu::Stages { vs: "surface_vs", fs: "surface_fs", fs_visibility: "surface_fs_visibility" },
+            &buffers,
+            options,
+        )?;
+        Ok(SurfaceShadows { program, uniform, statics, buffer: mesh.buffer.clone(), desc: mesh.desc.clone() })
     }
 
     /// The surface's WGSL with its bindings at the chosen group, for a game's own shaders:
     /// `surface_lit(...)`, `surface_bumped_normal(...)` and the horizon functions.
     pub fn wgsl(&self) -> &str {
-        &self.wgsl
+        &self.program.wgsl
     }
 
     /// The layout of the surface's bind group.
     pub fn layout(&self) -> &wgpu::BindGroupLayout {
-        &self.layout
+        &self.program.layout
     }
 
     /// The surface's bind group (uniform, horizon map and sampler, heights).
     pub fn bind_group(&self) -> &wgpu::BindGroup {
-        &self.bind_group
+        &self.program.bind_group
     }
 
     /// The uniform for `frame`: the light taken into mesh space, with the bump map's constants.
@@ -310,10 +241,10 @@ impl SurfaceShadows {
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.uniform(frame)));
     }
 
-    /// Draws the mesh into `pass`, whose targets must match the options it was built with.
+    /// Draws the mesh into `pass`, whose attachments must match the options it was built with.
+    /// The visibility target receives `(1 lit / 0 shadowed, 1, 0, 1)`.
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>) {
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(self.group, &self.bind_group, &[]);
+        self.program.bind(pass);
         for (slot, (name, _)) in STREAMS.iter().enumerate() {
             let a = self.desc.attribute(name).expect("checked when the surface was built");
             pass.set_vertex_buffer(

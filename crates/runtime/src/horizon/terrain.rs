@@ -5,6 +5,7 @@ use glam::{Mat4, Vec3};
 use hikage_bundle::{HeightfieldSettings, HorizonSettings};
 
 use super::{HORIZON_WGSL, HorizonEncoding, horizon_filterable, horizon_sampler};
+use crate::draw::DrawOptions;
 use crate::error::RuntimeError;
 use crate::gpu;
 use crate::upload::{GpuBundle, GpuTexture};
@@ -93,32 +94,6 @@ pub struct TerrainUniform {
     pub encoding: HorizonEncoding,
 }
 
-/// How the terrain's pipeline is built.
-#[derive(Clone, Debug, PartialEq)]
-pub struct TerrainOptions {
-    /// The colour target the terrain is drawn into (format, blending).
-    pub color: wgpu::ColorTargetState,
-    /// The depth attachment's format, if the pass has one (tested with `Less`, written).
-    pub depth_format: Option<wgpu::TextureFormat>,
-    /// A second colour target at location 1 receiving `(sun visibility, 1, sky visibility, 1)`
-    /// per pixel, for shadow masks, debugging and tests.
-    pub visibility_format: Option<wgpu::TextureFormat>,
-    /// The bind group index of the terrain's group: the game's own groups keep the others.
-    pub group: u32,
-}
-
-impl TerrainOptions {
-    /// Draw into an unblended `color_format` target, no depth, group 0.
-    pub fn new(color_format: wgpu::TextureFormat) -> TerrainOptions {
-        TerrainOptions {
-            color: wgpu::ColorTargetState { format: color_format, blend: None, write_mask: wgpu::ColorWrites::ALL },
-            depth_format: None,
-            visibility_format: None,
-            group: 0,
-        }
-    }
-}
-
 /// A heightfield with horizon shadows from a sun and ambient occlusion from the sky
 /// (seed 000's maps on terrain, where the curvature is the geometry's own: κ = 0).
 ///
@@ -129,14 +104,14 @@ impl TerrainOptions {
 ///
 /// ```no_run
 /// # fn frame(device: &wgpu::Device, queue: &wgpu::Queue, target: &wgpu::TextureView, depth: &wgpu::TextureView, view_proj: hikage_runtime::glam::Mat4) -> Result<(), hikage_runtime::RuntimeError> {
-/// use hikage_runtime::horizon::{Sun, TerrainFrame, TerrainOptions, TerrainShadows};
-/// use hikage_runtime::{CpuBundle, GpuBundle, glam::Vec3, wgpu};
+/// use hikage_runtime::horizon::{Sun, TerrainFrame, TerrainShadows};
+/// use hikage_runtime::{CpuBundle, DrawOptions, GpuBundle, glam::Vec3, wgpu};
 ///
 /// let cpu = CpuBundle::read_prefix("bundle".as_ref(), "terrain.")?;
 /// let gpu = GpuBundle::upload(device, queue, &cpu)?;
-/// let options = TerrainOptions {
+/// let options = DrawOptions {
 ///     depth_format: Some(wgpu::TextureFormat::Depth32Float),
-///     ..TerrainOptions::new(wgpu::TextureFormat::Rgba8UnormSrgb)
+///     ..DrawOptions::new(wgpu::TextureFormat::Rgba8UnormSrgb)
 /// };
 /// let terrain = TerrainShadows::new(device, queue, &gpu, "terrain.horizon", Some("terrain.ao"), &options)?;
 ///
@@ -166,12 +141,8 @@ impl TerrainOptions {
 /// ```
 #[derive(Debug)]
 pub struct TerrainShadows {
-    wgsl: String,
-    layout: wgpu::BindGroupLayout,
-    bind_group: wgpu::BindGroup,
+    program: gpu::Program,
     uniform: wgpu::Buffer,
-    pipeline: wgpu::RenderPipeline,
-    group: u32,
     statics: TerrainUniform,
     vertices: u32,
 }
@@ -185,7 +156,7 @@ impl TerrainShadows {
         gpu: &GpuBundle,
         horizon: &str,
         ao: Option<&str>,
-        options: &TerrainOptions,
+        options: &DrawOptions,
     ) -> Result<TerrainShadows, RuntimeError> {
         let map = gpu.texture(horizon)?;
         let settings = horizon_settings(map)?;
@@ -204,14 +175,7 @@ impl TerrainShadows {
             entries: &[
                 gpu::uniform_entry(0),
                 gpu::texture_entry(1, wgpu::TextureViewDimension::D3, filterable),
-                gpu::entry(
-                    2,
-                    wgpu::BindingType::Sampler(if filterable {
-                        wgpu::SamplerBindingType::Filtering
-                    } else {
-                        wgpu::SamplerBindingType::NonFiltering
-                    }),
-                ),
+                gpu::sampler_entry(2, filterable),
                 gpu::texture_entry(3, wgpu::TextureViewDimension::D2, false),
                 gpu::texture_entry(4, wgpu::TextureViewDimension::D2, false),
             ],
@@ -244,55 +208,34 @@ impl TerrainShadows {
                 ],
             })
         })?;
-        let wgsl = gpu::at_group(&format!("{HORIZON_WGSL}\n{TERRAIN_WGSL}"), options.group);
-        let pipeline = gpu::checked(device, horizon, || {
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("hikage terrain"),
-                source: wgpu::ShaderSource::Wgsl(wgsl.as_str().into()),
-            });
-            let pipeline_layout = gpu::pipeline_layout(device, options.group, &layout);
-            let fs = if options.visibility_format.is_some() { "terrain_fs_visibility" } else { "terrain_fs" };
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("hikage terrain"),
-                layout: Some(&pipeline_layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("terrain_vs"),
-                    compilation_options: Default::default(),
-                    buffers: &[],
-                },
-                primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-                depth_stencil: options.depth_format.map(gpu::depth_state),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some(fs),
-                    compilation_options: Default::default(),
-                    targets: &gpu::targets(options.color.clone(), options.visibility_format),
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        })?;
+        let program = gpu::Program::new(
+            device,
+            horizon,
+            format!("{HORIZON_WGSL}\n{TERRAIN_WGSL}"),
+            (layout, bind_group),
+            gpu::Stages { vs: "terrain_vs", fs: "terrain_fs", fs_visibility: "terrain_fs_visibility" },
+            &[],
+            options,
+        )?;
         let vertices = 6 * (heights.desc.width - 1) * (heights.desc.height - 1);
-        Ok(TerrainShadows { wgsl, layout, bind_group, uniform, pipeline, group: options.group, statics, vertices })
+        Ok(TerrainShadows { program, uniform, statics, vertices })
     }
 
     /// The terrain's WGSL with its bindings at the chosen group, for a game's own shaders:
     /// `terrain_sun_visibility(uv)`, `terrain_sky_visibility(uv)`, `terrain_position(texel)`,
     /// `terrain_normal(texel)` and the horizon functions.
     pub fn wgsl(&self) -> &str {
-        &self.wgsl
+        &self.program.wgsl
     }
 
     /// The layout of the terrain's bind group.
     pub fn layout(&self) -> &wgpu::BindGroupLayout {
-        &self.layout
+        &self.program.layout
     }
 
     /// The terrain's bind group (uniform, horizon map and sampler, heights, occlusion).
     pub fn bind_group(&self) -> &wgpu::BindGroup {
-        &self.bind_group
+        &self.program.bind_group
     }
 
     /// The uniform for `frame`: the sun taken into the terrain frame, with the terrain's own
@@ -316,10 +259,10 @@ impl TerrainShadows {
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.uniform(frame)));
     }
 
-    /// Draws the terrain into `pass`, whose targets must match the options it was built with.
+    /// Draws the terrain into `pass`, whose attachments must match the options it was built
+    /// with. The visibility target receives `(sun visibility, 1, sky visibility, 1)`.
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>) {
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(self.group, &self.bind_group, &[]);
+        self.program.bind(pass);
         pass.draw(0..self.vertices, 0..1);
     }
 }

@@ -4,6 +4,7 @@
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
 use super::{RELIEF_WGSL, Reads, ReliefMaps, ReliefUniform, Tracer};
+use crate::draw::DrawOptions;
 use crate::error::RuntimeError;
 use crate::gpu;
 use crate::upload::GpuBundle;
@@ -132,35 +133,6 @@ impl ReliefMaterialUniform {
     }
 }
 
-/// How the material's pipeline is built.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ReliefOptions {
-    /// The colour target (format, blending).
-    pub color: wgpu::ColorTargetState,
-    /// The depth attachment's format, if the pass has one (tested with `Less`, written).
-    pub depth_format: Option<wgpu::TextureFormat>,
-    /// A second colour target at location 1 receiving `(1 lit / 0 shadowed, 1, ambient
-    /// occlusion's open share, hit depth)`.
-    pub visibility_format: Option<wgpu::TextureFormat>,
-    /// Back faces culled (closed meshes) or drawn.
-    pub cull_mode: Option<wgpu::Face>,
-    /// The bind group index of the material's group.
-    pub group: u32,
-}
-
-impl ReliefOptions {
-    /// Draw into an unblended `color_format` target, no depth, back faces culled, group 0.
-    pub fn new(color_format: wgpu::TextureFormat) -> ReliefOptions {
-        ReliefOptions {
-            color: wgpu::ColorTargetState { format: color_format, blend: None, write_mask: wgpu::ColorWrites::ALL },
-            depth_format: None,
-            visibility_format: None,
-            cull_mode: Some(wgpu::Face::Back),
-            group: 0,
-        }
-    }
-}
-
 /// Relief mapping (seed 003) as a material for the game's own meshes: per pixel the view ray
 /// is taken into the relief's texel space through the mesh's tangent frame and traced from the
 /// depth map's estimate (or by another [`Tracer`]), then lit with depth-map shadows and ambient
@@ -171,12 +143,13 @@ impl ReliefOptions {
 ///
 /// ```no_run
 /// # fn frame(device: &wgpu::Device, queue: &wgpu::Queue, pass: &mut wgpu::RenderPass<'_>, vertices: &wgpu::Buffer, indices: &wgpu::Buffer, count: u32, view_proj: hikage_runtime::glam::Mat4) -> Result<(), hikage_runtime::RuntimeError> {
-/// use hikage_runtime::relief::{ReliefFrame, ReliefMaterial, ReliefOptions};
-/// use hikage_runtime::{CpuBundle, GpuBundle, glam::{Vec2, Vec3}, wgpu};
+/// use hikage_runtime::relief::{ReliefFrame, ReliefMaterial};
+/// use hikage_runtime::{CpuBundle, DrawOptions, GpuBundle, glam::{Vec2, Vec3}, wgpu};
 ///
 /// let cpu = CpuBundle::read_ids("bundle".as_ref(), &["relief_bricks.relief"])?;
 /// let gpu = GpuBundle::upload(device, queue, &cpu)?;
-/// let bricks = ReliefMaterial::new(device, queue, &gpu, "relief_bricks.relief", &ReliefOptions::new(wgpu::TextureFormat::Rgba8UnormSrgb))?;
+/// let options = DrawOptions::new(wgpu::TextureFormat::Rgba8UnormSrgb);
+/// let bricks = ReliefMaterial::new(device, queue, &gpu, "relief_bricks.relief", &options)?;
 /// let eye = Vec3::new(0.0, 2.0, 5.0);
 /// bricks.update(queue, &ReliefFrame { view_proj, eye, tile: Vec2::splat(1.0), ..ReliefFrame::default() });
 /// bricks.draw(pass, vertices.slice(..), indices.slice(..), count);
@@ -184,13 +157,9 @@ impl ReliefOptions {
 /// ```
 #[derive(Debug)]
 pub struct ReliefMaterial {
-    wgsl: String,
-    layout: wgpu::BindGroupLayout,
-    bind_group: wgpu::BindGroup,
+    program: gpu::Program,
     tracing: wgpu::Buffer,
     uniform: wgpu::Buffer,
-    pipeline: wgpu::RenderPipeline,
-    group: u32,
     statics: ReliefUniform,
 }
 
@@ -201,7 +170,7 @@ impl ReliefMaterial {
         queue: &wgpu::Queue,
         gpu: &GpuBundle,
         relief: &str,
-        options: &ReliefOptions,
+        options: &DrawOptions,
     ) -> Result<ReliefMaterial, RuntimeError> {
         let depth = gpu.texture(relief)?;
         let settings = depth.asset.settings.relief().ok_or_else(|| RuntimeError::Asset {
@@ -246,57 +215,36 @@ impl ReliefMaterial {
                 ],
             })
         })?;
-        let wgsl = gpu::at_group(&format!("{RELIEF_WGSL}\n{MATERIAL_WGSL}"), options.group);
-        let pipeline = gpu::checked(device, relief, || {
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("hikage relief"),
-                source: wgpu::ShaderSource::Wgsl(wgsl.as_str().into()),
-            });
-            let pipeline_layout = gpu::pipeline_layout(device, options.group, &layout);
-            let fs = if options.visibility_format.is_some() { "relief_fs_visibility" } else { "relief_fs" };
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("hikage relief"),
-                layout: Some(&pipeline_layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("relief_vs"),
-                    compilation_options: Default::default(),
-                    buffers: &[Some(wgpu::VertexBufferLayout {
-                        array_stride: std::mem::size_of::<ReliefVertex>() as u64,
-                        step_mode: wgpu::VertexStepMode::Vertex,
-                        attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 3 => Float32x2],
-                    })],
-                },
-                primitive: wgpu::PrimitiveState { cull_mode: options.cull_mode, ..Default::default() },
-                depth_stencil: options.depth_format.map(gpu::depth_state),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some(fs),
-                    compilation_options: Default::default(),
-                    targets: &gpu::targets(options.color.clone(), options.visibility_format),
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        })?;
-        Ok(ReliefMaterial { wgsl, layout, bind_group, tracing, uniform, pipeline, group: options.group, statics })
+        let program = gpu::Program::new(
+            device,
+            relief,
+            format!("{RELIEF_WGSL}\n{MATERIAL_WGSL}"),
+            (layout, bind_group),
+            gpu::Stages { vs: "relief_vs", fs: "relief_fs", fs_visibility: "relief_fs_visibility" },
+            &[Some(wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<ReliefVertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 3 => Float32x2],
+            })],
+            options,
+        )?;
+        Ok(ReliefMaterial { program, tracing, uniform, statics })
     }
 
     /// The material's WGSL with its bindings at the chosen group, for a game's own shaders:
     /// `relief_material_shade(...)`, the tracers, `relief_lit`, `relief_ambient_occlusion`.
     pub fn wgsl(&self) -> &str {
-        &self.wgsl
+        &self.program.wgsl
     }
 
     /// The layout of the material's bind group.
     pub fn layout(&self) -> &wgpu::BindGroupLayout {
-        &self.layout
+        &self.program.layout
     }
 
     /// The material's bind group (max-mip heights, depth maps, tracer and material uniforms).
     pub fn bind_group(&self) -> &wgpu::BindGroup {
-        &self.bind_group
+        &self.program.bind_group
     }
 
     /// Writes both uniforms for `frame`; the next submitted draw uses them.
@@ -305,7 +253,9 @@ impl ReliefMaterial {
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&ReliefMaterialUniform::new(frame)));
     }
 
-    /// Draws the triangles of `indices` (u32) over `vertices` ([`ReliefVertex`]) into `pass`.
+    /// Draws the triangles of `indices` (u32) over `vertices` ([`ReliefVertex`]) into `pass`,
+    /// whose attachments must match the options. The visibility target receives `(1 lit /
+    /// 0 shadowed, 1, ambient occlusion's open share, hit depth)`.
     pub fn draw(
         &self,
         pass: &mut wgpu::RenderPass<'_>,
@@ -313,8 +263,7 @@ impl ReliefMaterial {
         indices: wgpu::BufferSlice<'_>,
         count: u32,
     ) {
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(self.group, &self.bind_group, &[]);
+        self.program.bind(pass);
         pass.set_vertex_buffer(0, vertices);
         pass.set_index_buffer(indices, wgpu::IndexFormat::Uint32);
         pass.draw_indexed(0..count, 0, 0..1);

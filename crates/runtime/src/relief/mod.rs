@@ -25,7 +25,7 @@ use crate::load::CpuBundle;
 mod material;
 
 pub use material::{
-    ReliefFrame, ReliefMaterial, ReliefMaterialUniform, ReliefOptions, ReliefPixel, ReliefVertex, relief_material_shade,
+    ReliefFrame, ReliefMaterial, ReliefMaterialUniform, ReliefPixel, ReliefVertex, relief_material_shade,
 };
 
 /// WGSL of the tracers, shadows and ambient occlusion. Bindings (at `@group(0)`; a
