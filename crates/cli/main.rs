@@ -155,7 +155,27 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
     }
 }
 
+/// A file-size limit (`ulimit -f`) must end a write with an error naming the file (exit 3),
+/// not kill the process half way: with SIGXFSZ ignored, the write returns `EFBIG` instead.
+#[cfg(any(target_os = "linux", target_os = "macos"))]
+fn ignore_file_size_signal() {
+    unsafe extern "C" {
+        fn signal(signum: i32, handler: usize) -> usize;
+    }
+    const SIGXFSZ: i32 = 25;
+    const SIG_IGN: usize = 1;
+    // SAFETY: setting one signal's disposition to SIG_IGN has no memory-safety preconditions,
+    // and nothing else in the process installs a handler for it.
+    unsafe {
+        signal(SIGXFSZ, SIG_IGN);
+    }
+}
+
+#[cfg(not(any(target_os = "linux", target_os = "macos")))]
+fn ignore_file_size_signal() {}
+
 fn main() -> ExitCode {
+    ignore_file_size_signal();
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {

@@ -44,6 +44,14 @@ impl Observer for Bars {
         }
     }
 
+    fn waiting_for_lock(&self, lock: &std::path::Path) {
+        if let Some(b) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+            b.suspend(|| eprintln!("waiting for {}: another hikage is writing this bundle", lock.display()));
+        } else {
+            eprintln!("waiting for {}: another hikage is writing this bundle", lock.display());
+        }
+    }
+
     fn job_finished(&self, _id: &str, skipped: bool) {
         if let Some(b) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
             if skipped {

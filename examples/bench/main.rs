@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! cargo run --release --example bench              # every table
-//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit
+//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load
 //! ```
 //!
 //! Every figure is the best of several runs (machines here are noisy), with its baseline
@@ -11,6 +11,7 @@
 mod fit;
 mod hair;
 mod horizon;
+mod load;
 mod relief;
 
 use std::time::Instant;
@@ -72,5 +73,8 @@ fn main() {
     }
     if wanted("fit") {
         fit::run();
+    }
+    if wanted("load") {
+        load::run();
     }
 }

@@ -112,10 +112,10 @@ impl ReliefParams {
         if !(self.depth_scale.is_finite() && self.depth_scale > 0.0 && self.depth_scale <= 16.0) {
             return Err(format!("depth_scale must be finite, above 0 and at most 16, found {}", self.depth_scale));
         }
-        if let Some(s) = self.size {
-            if !s.is_power_of_two() {
-                return Err(format!("size must be a power of two, found {s}"));
-            }
+        if let Some(s) = self.size
+            && !s.is_power_of_two()
+        {
+            return Err(format!("size must be a power of two, found {s}"));
         }
         Ok(())
     }
@@ -128,12 +128,12 @@ impl ReliefParams {
                 "relief maps tile, so the heightfield needs power-of-two sides, found {width}×{height}"
             ));
         }
-        if let Some(s) = self.size {
-            if s > width || height * s / width == 0 {
-                return Err(format!(
-                    "size {s} must be at most the map width {width} and leave at least one row of {height}"
-                ));
-            }
+        if let Some(s) = self.size
+            && (s > width || height * s / width == 0)
+        {
+            return Err(format!(
+                "size {s} must be at most the map width {width} and leave at least one row of {height}"
+            ));
         }
         Ok(())
     }

@@ -23,6 +23,8 @@ pub trait Observer: Sync {
     fn progress(&self, _id: &str, _done: u64, _total: u64) {}
     /// A job ended; `skipped` when its assets were reused.
     fn job_finished(&self, _id: &str, _skipped: bool) {}
+    /// Another writer holds the bundle's lock (`lock`); the commit waits for it.
+    fn waiting_for_lock(&self, _lock: &Path) {}
 }
 
 /// An observer that ignores everything.
@@ -94,7 +96,7 @@ pub fn run_loaded(loaded: &LoadedPipeline, options: &RunOptions) -> Result<RunRe
         let job = job.baker();
         run_job(&mut writer, job, &loaded.base_dir, &loaded.pipeline.limits, options, (index, total), &mut report)?;
     }
-    let summary = writer.commit()?;
+    let summary = writer.commit_waiting(&|lock| options.observer.waiting_for_lock(lock))?;
     report.removed = summary.removed;
     report.manifest_written = summary.manifest_written;
     Ok(report)
@@ -156,7 +158,7 @@ pub fn run_one_job(job: &Job, bundle: &Path, options: &RunOptions) -> Result<Run
         let mut report = RunReport { bundle: bundle.to_path_buf(), ..Default::default() };
         let limits = InputLimits::default();
         run_job(&mut writer, job, Path::new(""), &limits, options, (0, 1), &mut report)?;
-        let summary = writer.commit()?;
+        let summary = writer.commit_waiting(&|lock| options.observer.waiting_for_lock(lock))?;
         report.removed = summary.removed;
         report.manifest_written = summary.manifest_written;
         Ok(report)

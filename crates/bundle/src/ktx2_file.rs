@@ -246,10 +246,10 @@ fn check_basic_dfd(bytes: &[u8]) -> Result<(), String> {
     while at.saturating_add(16) <= end {
         let kind = bytes_u32(bytes, at);
         let size = u16::from_le_bytes([bytes[at + 6], bytes[at + 7]]) as usize;
-        if kind == 0 {
-            if let Some(d) = bytes[at + 12..at + 16].iter().position(|&d| d == 255) {
-                return Err(format!("texel block dimension {d} is 256 (byte {}), expected at most 255", at + 12 + d));
-            }
+        if kind == 0
+            && let Some(d) = bytes[at + 12..at + 16].iter().position(|&d| d == 255)
+        {
+            return Err(format!("texel block dimension {d} is 256 (byte {}), expected at most 255", at + 12 + d));
         }
         if size == 0 {
             break;

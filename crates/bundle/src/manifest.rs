@@ -397,14 +397,14 @@ impl Manifest {
         }
         // Read the version alone first: its fields are stable across majors.
         let version = ron::Options::default().from_str::<VersionOnly>(text).map(|v| v.format).ok();
-        if let Some(found) = version {
-            if found.major != FormatVersion::CURRENT.major {
-                return Err(BundleError::UnsupportedVersion {
-                    path: path.to_path_buf(),
-                    found,
-                    supported: FormatVersion::CURRENT,
-                });
-            }
+        if let Some(found) = version
+            && found.major != FormatVersion::CURRENT.major
+        {
+            return Err(BundleError::UnsupportedVersion {
+                path: path.to_path_buf(),
+                found,
+                supported: FormatVersion::CURRENT,
+            });
         }
         ron::Options::default().from_str::<Manifest>(text).map_err(|e| BundleError::ManifestSyntax {
             path: path.to_path_buf(),

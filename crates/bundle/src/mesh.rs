@@ -97,7 +97,7 @@ impl MeshDesc {
                     a.element_bytes()
                 ));
             }
-            if a.offset % a.component.bytes() as u64 != 0 || a.stride as usize % a.component.bytes() != 0 {
+            if a.offset % a.component.bytes() as u64 != 0 || !(a.stride as usize).is_multiple_of(a.component.bytes()) {
                 return Err(format!(
                     "accessor `{}`: offset and stride must be multiples of the component size",
                     a.name

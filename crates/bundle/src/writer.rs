@@ -1,10 +1,30 @@
-//! Crash-safe bundle writing.
+//! Crash-safe, concurrency-safe bundle writing.
 //!
-//! Order of operations: each payload is written to a temporary file, synced and renamed to its
-//! content-derived name (so it never replaces a file the current manifest relies on with
-//! different bytes); then the manifest is written to a temporary file, synced, and renamed over
-//! `bundle.ron`; only then are payloads the new manifest no longer names removed. A process
-//! killed at any point leaves either the old or the new manifest, each with all its payloads.
+//! A writer stages each payload in a synced temporary file while it bakes, outside any lock.
+//! [`BundleWriter::commit`] then, holding an exclusive lock on `.hikage.lock` in the bundle
+//! directory:
+//!
+//! 1. re-reads the manifest as it is now (another writer may have committed since this one
+//!    opened) and applies this writer's changes to it — in [`WriteMode::Update`] its own
+//!    additions, replacements and removals; in [`WriteMode::Replace`] exactly its own assets;
+//! 2. renames its staged payloads to their content-derived names (a name never holds other
+//!    bytes, so a reader of the current manifest is never disturbed) and checks that every
+//!    payload the new manifest names is in place;
+//! 3. writes the manifest to a temporary file, syncs it and renames it over `bundle.ron`;
+//! 4. removes the payloads neither the new manifest nor the one it replaced names: one
+//!    generation late, so a reader that opened the previous manifest still finds its payloads
+//!    (readers retry once more against the newest manifest if two commits pass during a read).
+//!
+//! A process killed at any point leaves the old or the new manifest, each with all its
+//! payloads; a failed write leaves the old one untouched. Each writer holds a lock on a file of
+//! its own (`.hikage-writer-<tag>.lock`) while it lives and tags its staged files with it: a
+//! commit sweeps the staged files whose writer's lock is free (the writer was killed), never
+//! those of a writer still baking.
+//!
+//! Locking uses [`std::fs::File::lock`] (`flock` on Unix, `LockFileEx` on Windows). It holds
+//! between processes on one machine and on NFS (Linux emulates `flock` with POSIX locks there);
+//! on a file system that cannot lock, the commit fails with an I/O error naming the lock file
+//! rather than writing unlocked.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
@@ -20,13 +40,20 @@ use crate::texture::TextureData;
 
 const TEMP_PREFIX: &str = ".hikage-tmp-";
 
-/// Which assets the new manifest starts from.
+/// The lock file writers hold while they commit.
+pub const LOCK_FILE: &str = ".hikage.lock";
+
+/// Prefix of a writer's own lock file, held while the writer lives.
+const WRITER_PREFIX: &str = ".hikage-writer-";
+
+/// What the new manifest is made of.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum WriteMode {
-    /// The new manifest holds exactly the assets put or kept by this writer (a pipeline run).
+    /// Exactly the assets put or kept by this writer: a pipeline owns its bundle, and assets it
+    /// did not make (removed jobs, one-shots into its bundle) go.
     Replace,
-    /// The new manifest starts as a copy of the previous one; puts add or replace assets (a
-    /// one-shot command adding to an existing bundle).
+    /// The manifest as it is at commit, with this writer's additions, replacements and removals
+    /// applied: a one-shot command adding to a bundle others also write.
     Update,
 }
 
@@ -35,21 +62,28 @@ pub enum WriteMode {
 pub struct CommitSummary {
     /// True when `bundle.ron` was rewritten (false when it already had the same bytes).
     pub manifest_written: bool,
-    /// Payload files removed because no asset names them any more.
+    /// Payload files removed because neither the new nor the replaced manifest names them.
     pub removed: Vec<String>,
 }
 
 /// Writes a bundle directory transactionally; see the module docs for the order of writes.
 ///
-/// Dropping a writer without [`commit`](BundleWriter::commit) removes the payloads it wrote
-/// that the previous manifest does not name, leaving the previous bundle as it was.
+/// Dropping a writer without [`commit`](BundleWriter::commit) removes what it staged, leaving
+/// the bundle as it was.
 #[derive(Debug)]
 pub struct BundleWriter {
     dir: PathBuf,
+    mode: WriteMode,
+    ignore_bad: bool,
     previous: Option<Manifest>,
-    assets: BTreeMap<String, Asset>,
-    written: BTreeSet<String>,
-    committed: bool,
+    /// This writer's changes: an asset put or kept, or `None` for one removed.
+    changes: BTreeMap<String, Option<Asset>>,
+    /// Staged payloads: final file name → temporary path.
+    staged: BTreeMap<String, PathBuf>,
+    /// This writer's tag in the names of its staged files and of its lock.
+    tag: String,
+    /// This writer's own lock, held while it lives.
+    alive: Option<(fs::File, PathBuf)>,
 }
 
 impl BundleWriter {
@@ -67,20 +101,28 @@ impl BundleWriter {
 
     fn open_inner(dir: &Path, mode: WriteMode, ignore_bad: bool) -> Result<BundleWriter, BundleError> {
         fs::create_dir_all(dir).map_err(|e| BundleError::io(dir, e))?;
-        let previous = if dir.join(MANIFEST_FILE).exists() {
-            match Bundle::open(dir) {
-                Ok(b) => Some(b.manifest().clone()),
-                Err(_) if ignore_bad => None,
-                Err(e) => return Err(e),
-            }
-        } else {
-            None
-        };
-        let assets = match (&previous, mode) {
-            (Some(m), WriteMode::Update) => m.assets.iter().map(|a| (a.id.clone(), a.clone())).collect(),
-            _ => BTreeMap::new(),
-        };
-        Ok(BundleWriter { dir: dir.to_path_buf(), previous, assets, written: BTreeSet::new(), committed: false })
+        let previous = current_manifest(dir, ignore_bad)?;
+        // The writer's lock appears under its name only once held: a sweep that finds it free
+        // may take its writer for dead.
+        let tag = writer_tag();
+        let path = dir.join(format!("{WRITER_PREFIX}{tag}.lock"));
+        let pending = dir.join(format!("{WRITER_PREFIX}{tag}.lock.new"));
+        let file = fs::File::create_new(&pending).map_err(|e| BundleError::io(&pending, e))?;
+        let held = file.lock().and_then(|()| fs::rename(&pending, &path));
+        if let Err(e) = held {
+            let _ = fs::remove_file(&pending);
+            return Err(BundleError::io(&path, e));
+        }
+        Ok(BundleWriter {
+            dir: dir.to_path_buf(),
+            mode,
+            ignore_bad,
+            previous,
+            changes: BTreeMap::new(),
+            staged: BTreeMap::new(),
+            tag,
+            alive: Some((file, path)),
+        })
     }
 
     /// The bundle directory.
@@ -107,15 +149,15 @@ impl BundleWriter {
 
     /// Puts an asset into the new manifest unchanged (its payload is already in place).
     pub fn keep(&mut self, asset: Asset) {
-        self.assets.insert(asset.id.clone(), asset);
+        self.changes.insert(asset.id.clone(), Some(asset));
     }
 
-    /// Removes asset `id` from the new manifest (its payload goes at commit).
-    pub fn remove(&mut self, id: &str) -> Option<Asset> {
-        self.assets.remove(id)
+    /// Removes asset `id` from the new manifest (its payload goes one commit later).
+    pub fn remove(&mut self, id: &str) {
+        self.changes.insert(id.to_string(), None);
     }
 
-    /// Encodes a texture as KTX2, writes it, and adds or replaces asset `id`.
+    /// Encodes a texture as KTX2, stages it, and adds or replaces asset `id`.
     pub fn put_texture(
         &mut self,
         id: &str,
@@ -127,7 +169,7 @@ impl BundleWriter {
         self.put_payload(id, settings, input_hash, Payload::Texture(texture.desc.clone()), &bytes, "ktx2")
     }
 
-    /// Writes a mesh payload and adds or replaces asset `id`.
+    /// Stages a mesh payload and adds or replaces asset `id`.
     pub fn put_mesh(
         &mut self,
         id: &str,
@@ -151,8 +193,10 @@ impl BundleWriter {
         check_asset_id(id).map_err(|m| BundleError::InvalidData(format!("asset {m}")))?;
         let hash = blake3::hash(bytes).to_hex().to_string();
         let file = payload_file_name(id, &hash, ext);
-        write_atomically(&self.dir, &file, bytes)?;
-        self.written.insert(file.clone());
+        if !self.staged.contains_key(&file) {
+            let temp = stage(&self.dir, &self.tag, &file, bytes)?;
+            self.staged.insert(file.clone(), temp);
+        }
         let asset = Asset {
             id: id.to_string(),
             kind: settings.kind(&payload),
@@ -163,78 +207,231 @@ impl BundleWriter {
             payload,
             settings,
         };
-        self.assets.insert(id.to_string(), asset.clone());
+        self.changes.insert(id.to_string(), Some(asset.clone()));
         Ok(asset)
     }
 
-    /// The manifest that [`commit`](BundleWriter::commit) would write.
-    pub fn manifest(&self) -> Manifest {
+    /// The manifest this writer's changes make of `base` (the manifest at commit).
+    fn apply(&self, base: Option<&Manifest>) -> Manifest {
+        let mut assets: BTreeMap<String, Asset> = match (self.mode, base) {
+            (WriteMode::Update, Some(m)) => m.assets.iter().map(|a| (a.id.clone(), a.clone())).collect(),
+            _ => BTreeMap::new(),
+        };
+        for (id, change) in &self.changes {
+            match change {
+                Some(asset) => assets.insert(id.clone(), asset.clone()),
+                None => assets.remove(id),
+            };
+        }
         let mut m = Manifest::new();
-        m.assets = self.assets.values().cloned().collect();
+        m.assets = assets.into_values().collect();
         m
     }
 
-    /// Replaces `bundle.ron` atomically with the new manifest, then removes payloads that no
-    /// asset names any more and temporary files left by interrupted writes.
-    pub fn commit(mut self) -> Result<CommitSummary, BundleError> {
-        let text = self.manifest().to_ron();
-        let manifest_path = self.dir.join(MANIFEST_FILE);
-        let unchanged = fs::read(&manifest_path).map(|old| old == text.as_bytes()).unwrap_or(false);
-        if !unchanged {
-            write_atomically(&self.dir, MANIFEST_FILE, text.as_bytes())?;
-        }
-        self.committed = true;
+    /// The manifest [`commit`](BundleWriter::commit) would write if nobody else committed first.
+    pub fn manifest(&self) -> Manifest {
+        let current = current_manifest(&self.dir, true).ok().flatten();
+        self.apply(current.as_ref().or(self.previous.as_ref()))
+    }
 
-        // Remove what the new manifest does not name.
-        let keep: BTreeSet<&str> = self.assets.values().map(|a| a.file.as_str()).collect();
+    /// Commits under the bundle's lock (see the module docs).
+    pub fn commit(self) -> Result<CommitSummary, BundleError> {
+        self.commit_waiting(&|_| {})
+    }
+
+    /// [`commit`](BundleWriter::commit), calling `waiting(lock file)` first when another
+    /// writer holds the lock (so a command line can say why it pauses).
+    pub fn commit_waiting(mut self, waiting: &dyn Fn(&Path)) -> Result<CommitSummary, BundleError> {
+        let lock_path = self.dir.join(LOCK_FILE);
+        let lock = fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&lock_path)
+            .map_err(|e| BundleError::io(&lock_path, e))?;
+        match lock.try_lock() {
+            Ok(()) => {}
+            Err(fs::TryLockError::WouldBlock) => {
+                waiting(&lock_path);
+                lock.lock().map_err(|e| BundleError::io(&lock_path, e))?;
+            }
+            Err(fs::TryLockError::Error(e)) => return Err(BundleError::io(&lock_path, e)),
+        }
+
+        // 1. The manifest as it is now, with this writer's changes.
+        let current = current_manifest(&self.dir, self.ignore_bad)?;
+        let new = self.apply(current.as_ref());
+
+        // 2. Staged payloads to their names, every payload the new manifest names in place;
+        // 3. the manifest. On a failure the payloads moved in are taken out again: the bundle
+        // stays as it was.
+        let mut moved = Vec::new();
+        let written = self.place_payloads(&new, &mut moved).and_then(|()| self.write_manifest(&new));
+        let manifest_written = match written {
+            Ok(w) => w,
+            Err(e) => {
+                let named: BTreeSet<&str> =
+                    current.iter().flat_map(|m| m.assets.iter()).map(|a| a.file.as_str()).collect();
+                for file in moved.iter().filter(|f| !named.contains(f.as_str())) {
+                    let _ = fs::remove_file(self.dir.join(file));
+                }
+                return Err(e);
+            }
+        };
+
+        // 4. Payloads of neither generation, and what killed writers left.
+        let keep: BTreeSet<&str> =
+            new.assets.iter().chain(current.iter().flat_map(|m| m.assets.iter())).map(|a| a.file.as_str()).collect();
         let mut removed = Vec::new();
-        let entries = fs::read_dir(&self.dir).map_err(|e| BundleError::io(&self.dir, e))?;
-        for entry in entries {
-            let entry = entry.map_err(|e| BundleError::io(&self.dir, e))?;
-            let name = entry.file_name().to_string_lossy().into_owned();
-            let stale = (looks_like_payload(&name) && !keep.contains(name.as_str())) || name.starts_with(TEMP_PREFIX);
+        let names: Vec<String> = fs::read_dir(&self.dir)
+            .map_err(|e| BundleError::io(&self.dir, e))?
+            .map(|e| e.map(|e| e.file_name().to_string_lossy().into_owned()))
+            .collect::<Result<_, _>>()
+            .map_err(|e| BundleError::io(&self.dir, e))?;
+        let mut dead = BTreeMap::new();
+        for name in names {
+            let stale = if looks_like_payload(&name) {
+                !keep.contains(name.as_str())
+            } else if let Some(tag) = name.strip_prefix(TEMP_PREFIX).and_then(|rest| rest.split('.').next()) {
+                let tag = tag.split_once("-s").map_or(tag, |(tag, _)| tag);
+                tag != self.tag && *dead.entry(tag.to_string()).or_insert_with(|| writer_is_dead(&self.dir, tag))
+            } else if let Some(tag) = name.strip_prefix(WRITER_PREFIX).and_then(|rest| rest.strip_suffix(".lock")) {
+                tag != self.tag && *dead.entry(tag.to_string()).or_insert_with(|| writer_is_dead(&self.dir, tag))
+            } else if name.starts_with(WRITER_PREFIX) && name.ends_with(".lock.new") {
+                // A writer killed between creating its lock and naming it: an hour later.
+                fs::metadata(self.dir.join(&name))
+                    .and_then(|m| m.modified())
+                    .is_ok_and(|t| t.elapsed().is_ok_and(|age| age > std::time::Duration::from_secs(3600)))
+            } else {
+                false
+            };
             if stale {
-                let path = entry.path();
-                fs::remove_file(&path).map_err(|e| BundleError::io(&path, e))?;
-                removed.push(name);
+                let path = self.dir.join(&name);
+                match fs::remove_file(&path) {
+                    Ok(()) => removed.push(name),
+                    // Another writer's sweep got there first.
+                    Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                    Err(e) => return Err(BundleError::io(&path, e)),
+                }
             }
         }
         removed.sort();
-        Ok(CommitSummary { manifest_written: !unchanged, removed })
+        Ok(CommitSummary { manifest_written, removed })
     }
 }
 
 impl Drop for BundleWriter {
     fn drop(&mut self) {
-        if self.committed {
-            return;
+        for temp in self.staged.values() {
+            let _ = fs::remove_file(temp);
         }
-        let referenced: BTreeSet<&str> =
-            self.previous.iter().flat_map(|m| m.assets.iter().map(|a| a.file.as_str())).collect();
-        for file in &self.written {
-            if !referenced.contains(file.as_str()) {
-                let _ = fs::remove_file(self.dir.join(file));
-            }
+        if let Some((file, path)) = self.alive.take() {
+            drop(file);
+            let _ = fs::remove_file(path);
         }
     }
 }
 
-/// Writes `dir/name` through a synced temporary file and a rename, then syncs the directory.
-fn write_atomically(dir: &Path, name: &str, bytes: &[u8]) -> Result<(), BundleError> {
-    let tmp = dir.join(format!("{TEMP_PREFIX}{}-{name}", std::process::id()));
-    let target = dir.join(name);
+/// A tag no other writer has had: the process id, a per-process counter and the time (a
+/// reused process id cannot meet a dead writer's files).
+fn writer_tag() -> String {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos());
+    format!("{}w{n}t{nanos}", std::process::id())
+}
+
+/// True when the writer tagged `tag` is gone: its lock file is missing (a writer stages files
+/// only once its lock is named), or free to take.
+fn writer_is_dead(dir: &Path, tag: &str) -> bool {
+    match fs::OpenOptions::new().write(true).open(dir.join(format!("{WRITER_PREFIX}{tag}.lock"))) {
+        Ok(file) => match file.try_lock() {
+            Ok(()) => true,
+            Err(fs::TryLockError::WouldBlock) => false,
+            // A file system that cannot lock: assume the writer lives (never sweep in doubt).
+            Err(fs::TryLockError::Error(_)) => false,
+        },
+        Err(e) => e.kind() == std::io::ErrorKind::NotFound,
+    }
+}
+
+impl BundleWriter {
+    /// Writes `new` over `bundle.ron` through a synced temporary file and a rename, unless the
+    /// file already holds those bytes; true when it wrote.
+    fn write_manifest(&self, new: &Manifest) -> Result<bool, BundleError> {
+        let text = new.to_ron();
+        let path = self.dir.join(MANIFEST_FILE);
+        if fs::read(&path).is_ok_and(|old| old == text.as_bytes()) {
+            return Ok(false);
+        }
+        let temp = stage(&self.dir, &self.tag, MANIFEST_FILE, text.as_bytes())?;
+        if let Err(e) = fs::rename(&temp, &path).and_then(|()| sync_dir(&self.dir)) {
+            let _ = fs::remove_file(&temp);
+            return Err(BundleError::io(&path, e));
+        }
+        Ok(true)
+    }
+
+    /// Renames the staged payloads to their names (recording each in `moved`), then checks
+    /// that every payload `new` names is in place.
+    fn place_payloads(&mut self, new: &Manifest, moved: &mut Vec<String>) -> Result<(), BundleError> {
+        while let Some((file, temp)) = self.staged.pop_first() {
+            let target = self.dir.join(&file);
+            if let Err(e) = fs::rename(&temp, &target) {
+                let _ = fs::remove_file(&temp);
+                return Err(BundleError::io(&target, e));
+            }
+            moved.push(file);
+        }
+        sync_dir(&self.dir).map_err(|e| BundleError::io(&self.dir, e))?;
+        for a in &new.assets {
+            let path = self.dir.join(&a.file);
+            match fs::symlink_metadata(&path) {
+                Ok(m) if m.is_file() && m.len() == a.byte_length => {}
+                _ => {
+                    return Err(BundleError::Payload {
+                        path,
+                        asset: a.id.clone(),
+                        message: "the payload this commit keeps vanished while baking (another writer \
+                                  removed it); nothing was committed: bake again"
+                            .into(),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The manifest in `dir` now: `None` when there is none (or it cannot be read and
+/// `ignore_bad`), an error when it cannot be read.
+fn current_manifest(dir: &Path, ignore_bad: bool) -> Result<Option<Manifest>, BundleError> {
+    if !dir.join(MANIFEST_FILE).exists() {
+        return Ok(None);
+    }
+    match Bundle::open(dir) {
+        Ok(b) => Ok(Some(b.manifest().clone())),
+        Err(_) if ignore_bad => Ok(None),
+        Err(e) => Err(e),
+    }
+}
+
+/// Writes `bytes` to a new synced temporary file in `dir` for `name`, tagged with its writer's
+/// `tag`; returns its path.
+fn stage(dir: &Path, tag: &str, name: &str, bytes: &[u8]) -> Result<PathBuf, BundleError> {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let temp = dir.join(format!("{TEMP_PREFIX}{tag}-s{n}.{name}"));
     let result = (|| {
-        let mut f = fs::File::create(&tmp)?;
+        let mut f = fs::File::create_new(&temp)?;
         f.write_all(bytes)?;
-        f.sync_all()?;
-        drop(f);
-        fs::rename(&tmp, &target)?;
-        sync_dir(dir)
+        f.sync_all()
     })();
     result.map_err(|e| {
-        let _ = fs::remove_file(&tmp);
-        BundleError::io(&target, e)
-    })
+        let _ = fs::remove_file(&temp);
+        BundleError::io(dir.join(name), e)
+    })?;
+    Ok(temp)
 }
 
 #[cfg(unix)]

@@ -35,10 +35,10 @@ pub fn bundle(data: &[u8]) {
     static PAYLOAD: OnceLock<()> = OnceLock::new();
     PAYLOAD.get_or_init(|| {
         let hf = hikage_bake::Heightfield::from_samples(4, 4, (0..16).map(|i| i as f32 / 15.0).collect());
-        if let Ok(t) = hf.to_texture(hikage_bundle::TextureFormat::R16Float) {
-            if let Ok(bytes) = hikage_bundle::ktx2_file::encode(&t, "fuzz") {
-                let _ = std::fs::write(scratch().join("bundle").join("t.ktx2"), bytes);
-            }
+        if let Ok(t) = hf.to_texture(hikage_bundle::TextureFormat::R16Float)
+            && let Ok(bytes) = hikage_bundle::ktx2_file::encode(&t, "fuzz")
+        {
+            let _ = std::fs::write(scratch().join("bundle").join("t.ktx2"), bytes);
         }
     });
     if std::fs::write(dir.join(hikage_bundle::MANIFEST_FILE), data).is_err() {
@@ -73,11 +73,11 @@ pub fn hair(data: &[u8]) {
 
 /// OBJ text → [`hikage_bake::strands::obj::parse`] (polylines), and strips of what it accepts.
 pub fn obj_polylines(data: &[u8]) {
-    if let Ok(text) = std::str::from_utf8(data) {
-        if let Ok(s) = hikage_bake::strands::obj::parse(text, 1_000_000) {
-            let sets = hikage_bake::strands::strips::StripSets::from_source(&s);
-            let _ = hikage_bake::strands::strips::build(&s, &sets);
-        }
+    if let Ok(text) = std::str::from_utf8(data)
+        && let Ok(s) = hikage_bake::strands::obj::parse(text, 1_000_000)
+    {
+        let sets = hikage_bake::strands::strips::StripSets::from_source(&s);
+        let _ = hikage_bake::strands::strips::build(&s, &sets);
     }
 }
 
@@ -106,10 +106,10 @@ pub fn mesh(data: &[u8]) {
     let limits = hikage_bake::mesh::MeshLimits { max_bytes: 1 << 20 };
     for name in ["mesh.gltf", "mesh.obj"] {
         let path = scratch().join(name);
-        if std::fs::write(&path, data).is_ok() {
-            if let Ok(m) = hikage_bake::mesh::load(&path, limits) {
-                let _ = hikage_bake::curvature::compute(&m);
-            }
+        if std::fs::write(&path, data).is_ok()
+            && let Ok(m) = hikage_bake::mesh::load(&path, limits)
+        {
+            let _ = hikage_bake::curvature::compute(&m);
         }
     }
 }

@@ -92,7 +92,7 @@ pub use bytemuck;
 pub use draw::DrawOptions;
 pub use error::RuntimeError;
 pub use glam;
-pub use load::{CpuAsset, CpuBundle, CpuPayload};
+pub use load::{Changes, CpuAsset, CpuBundle, CpuPayload};
 pub use upload::{GpuBundle, GpuMesh, GpuTexture, wgpu_format};
 pub use wgpu;
 

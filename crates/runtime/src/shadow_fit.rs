@@ -251,10 +251,12 @@ fn fit_point(light: Vec3, sphere: Sphere, o: &FitOptions) -> (Mat4, FitKind) {
     let radius = sphere.radius.max(1e-6);
     let near = o.near.max(1e-4);
     let far = (dist + radius).max(near * 2.0);
-    if o.snap && kind == FitKind::Visible && dist > radius * 1.8 {
-        if let Some(m) = snapped_point(light, sphere, forward, (near, far), o) {
-            return (m, kind);
-        }
+    if o.snap
+        && kind == FitKind::Visible
+        && dist > radius * 1.8
+        && let Some(m) = snapped_point(light, sphere, forward, (near, far), o)
+    {
+        return (m, kind);
     }
     let view = look_to_mat4(light, forward, up_for(forward));
     (directx::perspective(fov, 1.0, near, far) * view, kind)

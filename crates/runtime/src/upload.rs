@@ -65,22 +65,57 @@ impl GpuBundle {
         self.meshes.get(id).ok_or_else(|| missing(id, "mesh", self.meshes.keys()))
     }
 
+    /// Applies a [`CpuBundle::reload`]: uploads the changed and added assets of `cpu` in place
+    /// of the old ones and drops the removed ones. Components built on a replaced texture or
+    /// buffer hold the old one: build them again (cheap) for the assets in `changes`.
+    ///
+    /// [`CpuBundle::reload`]: crate::CpuBundle::reload
+    pub fn apply(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        cpu: &CpuBundle,
+        changes: &crate::load::Changes,
+    ) -> Result<(), RuntimeError> {
+        for id in changes.changed.iter().chain(&changes.added) {
+            let Some(a) = cpu.asset(id) else { continue };
+            self.upload_one(device, queue, a)?;
+        }
+        for id in &changes.removed {
+            self.textures.remove(id);
+            self.meshes.remove(id);
+        }
+        Ok(())
+    }
+
+    fn upload_one(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        a: &crate::load::CpuAsset,
+    ) -> Result<(), RuntimeError> {
+        match &a.payload {
+            CpuPayload::Texture(t) => {
+                let gpu = upload_texture(device, queue, &a.asset, t)?;
+                self.meshes.remove(&a.asset.id);
+                self.textures.insert(a.asset.id.clone(), gpu);
+            }
+            CpuPayload::Mesh(m) => {
+                let gpu = upload_mesh(device, queue, &a.asset, &m.desc, &m.bytes)?;
+                self.textures.remove(&a.asset.id);
+                self.meshes.insert(a.asset.id.clone(), gpu);
+            }
+        }
+        Ok(())
+    }
+
     /// Uploads every asset. Sizes are checked against the device's limits first, and the
     /// upload runs inside a validation error scope, so a bundle the device cannot hold gives an
     /// error naming the asset.
     pub fn upload(device: &wgpu::Device, queue: &wgpu::Queue, cpu: &CpuBundle) -> Result<GpuBundle, RuntimeError> {
         let mut out = GpuBundle::default();
         for a in &cpu.assets {
-            match &a.payload {
-                CpuPayload::Texture(t) => {
-                    let gpu = upload_texture(device, queue, &a.asset, t)?;
-                    out.textures.insert(a.asset.id.clone(), gpu);
-                }
-                CpuPayload::Mesh(m) => {
-                    let gpu = upload_mesh(device, queue, &a.asset, &m.desc, &m.bytes)?;
-                    out.meshes.insert(a.asset.id.clone(), gpu);
-                }
-            }
+            out.upload_one(device, queue, a)?;
         }
         Ok(out)
     }

@@ -92,7 +92,7 @@ pub fn glb(mesh: &MeshData, generator: &str) -> Result<Vec<u8>, String> {
     while text.len() % 4 != 0 {
         text.push(b' ');
     }
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let total = 12 + 8 + text.len() + 8 + bin.len();

@@ -254,10 +254,10 @@ impl<'a> Direction<'a> {
 /// Keeps the steeper of `best` and candidate `c`; a tie keeps `best` (the nearer sample).
 #[inline(always)]
 fn steeper(best: &mut (f32, f32), c: Option<(f32, f32)>) {
-    if let Some((s, t)) = c {
-        if s > best.0 {
-            *best = (s, t);
-        }
+    if let Some((s, t)) = c
+        && s > best.0
+    {
+        *best = (s, t);
     }
 }
 

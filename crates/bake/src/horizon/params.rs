@@ -40,10 +40,10 @@ impl HorizonParams {
         if !(1..=256).contains(&self.directions) {
             return Err(format!("directions must be 1 to 256, found {}", self.directions));
         }
-        if let Some(d) = self.max_distance {
-            if !(d.is_finite() && d > 0.0) {
-                return Err(format!("max_distance must be finite and above 0, found {d}"));
-            }
+        if let Some(d) = self.max_distance
+            && !(d.is_finite() && d > 0.0)
+        {
+            return Err(format!("max_distance must be finite and above 0, found {d}"));
         }
         if self.near_field > 64 {
             return Err(format!("near_field must be 0 to 64 texels, found {}", self.near_field));

@@ -131,15 +131,16 @@ impl Steps {
     /// off the table of whole columns.
     #[inline]
     pub fn window(&self, g: &Grid, wrap: bool, row: usize, col: usize, lo: usize, hi: usize) -> Option<(f32, f32)> {
-        if lo < hi && hi < self.col_r.len() {
-            if let Some(base) = self.padded_columns(g, row, col, lo, hi) {
-                let (cols, rows) = (lo + 1..hi + 1, self.col_rows[lo] as usize..self.col_rows[hi] as usize);
-                // Wrapped padding holds real heights; a window inside a clamped map reads none of
-                // its padding. Either way no sample can be off the map.
-                let off_map = !wrap && !self.on_map(g, row, col, lo, hi);
-                let slotted = hi - lo <= COL_SLOTS && rows.len() <= ROW_SLOTS;
-                return self.slope(self.best_padded(g, base, cols, rows, off_map, slotted));
-            }
+        if lo < hi
+            && hi < self.col_r.len()
+            && let Some(base) = self.padded_columns(g, row, col, lo, hi)
+        {
+            let (cols, rows) = (lo + 1..hi + 1, self.col_rows[lo] as usize..self.col_rows[hi] as usize);
+            // Wrapped padding holds real heights; a window inside a clamped map reads none of
+            // its padding. Either way no sample can be off the map.
+            let off_map = !wrap && !self.on_map(g, row, col, lo, hi);
+            let slotted = hi - lo <= COL_SLOTS && rows.len() <= ROW_SLOTS;
+            return self.slope(self.best_padded(g, base, cols, rows, off_map, slotted));
         }
         self.trace(g, wrap, row, col, lo as f64, hi as f64)
     }

@@ -157,10 +157,10 @@ impl Sweeper {
                 debug_assert!((i_hi + 1..w).all(|c| Self::point(g, line, k, c).is_none()));
                 for i in (i_lo..=i_hi).rev() {
                     let a = i + near + 1;
-                    if a < w {
-                        if let Some(p) = Self::point(g, line, k, a) {
-                            self.suffix.push_front(p);
-                        }
+                    if a < w
+                        && let Some(p) = Self::point(g, line, k, a)
+                    {
+                        self.suffix.push_front(p);
                     }
                     Self::ahead(g, line, k, i, prefetch);
                     self.texels(g, line, k, i, slots, finish);

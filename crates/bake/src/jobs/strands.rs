@@ -140,17 +140,17 @@ impl Baker for StrandsJob {
 
     fn check(&self) -> Result<(), String> {
         for (name, w) in [("shading_width", self.shading_width), ("opacity_width", self.opacity_width)] {
-            if let Some(w) = w {
-                if !(w.is_finite() && w > 0.0) {
-                    return Err(format!("{name} must be finite and above 0, found {w}"));
-                }
+            if let Some(w) = w
+                && !(w.is_finite() && w > 0.0)
+            {
+                return Err(format!("{name} must be finite and above 0, found {w}"));
             }
         }
         for (name, a) in [("shading_alpha", self.shading_alpha), ("opacity_alpha", self.opacity_alpha)] {
-            if let Some(a) = a {
-                if !(a > 0.0 && a <= 1.0) {
-                    return Err(format!("{name} must be in (0, 1], found {a}"));
-                }
+            if let Some(a) = a
+                && !(a > 0.0 && a <= 1.0)
+            {
+                return Err(format!("{name} must be in (0, 1], found {a}"));
             }
         }
         if !(0.0..=1.0).contains(&self.taper) {

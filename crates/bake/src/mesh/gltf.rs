@@ -152,7 +152,7 @@ pub fn load(path: &Path, limits: MeshLimits) -> Result<Mesh, BakeError> {
             }
             None => (0..count as u64).collect(),
         };
-        if indices.len() % 3 != 0 {
+        if !indices.len().is_multiple_of(3) {
             return Err(bad(place(" indices"), format!("expected a multiple of 3 indices, found {}", indices.len())));
         }
         for (t, tri) in indices.chunks_exact(3).enumerate() {
