@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 use crate::heightfield::Heightfield;
 
 /// Version of the relief baker; part of the input hash.
-pub const ALGORITHM_VERSION: u32 = 1;
+pub const ALGORITHM_VERSION: u32 = 2;
 
 /// Largest count of zenith rows or azimuths accepted.
 pub const MAX_ANGLE_COUNT: u32 = 128;
@@ -177,31 +177,114 @@ pub fn stored_heights(hf: &Heightfield) -> Result<Vec<f32>, String> {
 /// the traversal climbs when the ray crosses empty space.
 const BAKE_START_LEVEL: u32 = 3;
 
+/// Squares of entry points at least this wide get their own floor ([`block_floor`]) before
+/// their rays are traced; smaller ones are traced ray by ray.
+const FLOOR_MIN_SIDE: u32 = 4;
+
 /// First-hit depths of one direction, MIN-downscaled by `factor` (1 keeps every texel),
-/// row-major. Within a block only a hit shallower than the block's current minimum can change
-/// it, so each ray is traced no deeper than that: the result is the same as tracing every ray
-/// to its hit, at a fraction of the reads for grazing directions.
+/// row-major. Only a hit shallower than a block's current minimum can change it, so each ray is
+/// traced no deeper than that; and no ray starts above the depth its square of neighbours can
+/// first meet the relief ([`block_floor`]). The result is that of tracing every ray from the
+/// top plane to its hit, at a fraction of the reads.
 pub fn trace_layer(mm: &MaxMip, dir: [f32; 3], thickness: f32, factor: u32) -> Vec<f32> {
     let (w, h) = (mm.width(), mm.height());
     let (ow, oh) = (w / factor, h / factor);
-    let start = BAKE_START_LEVEL.min(mm.levels() - 1);
     let mut out = Vec::with_capacity(ow as usize * oh as usize);
     for bj in 0..oh {
         for bi in 0..ow {
             let mut block_min = 1.0f32;
-            for j in bj * factor..(bj + 1) * factor {
-                for i in bi * factor..(bi + 1) * factor {
-                    let ray = ReliefRay { origin: [i as f32 + 0.5, j as f32 + 0.5], dir, thickness };
-                    let stop = block_min / ray.dz();
-                    let mut reads = 0;
-                    let s = first_hit_maxmip(mm, &ray, (0.0, stop), (start, 0), &mut reads);
-                    block_min = block_min.min(s * ray.dz());
-                }
-            }
-            out.push(block_min.min(1.0));
+            trace_square(
+                mm,
+                &Square { dir, thickness, corner: (bi * factor, bj * factor), side: factor },
+                0.0,
+                &mut block_min,
+            );
+            out.push(block_min);
         }
     }
     out
+}
+
+/// The rays entering at the texel centres of a square of the top plane.
+#[derive(Clone, Copy)]
+struct Square {
+    dir: [f32; 3],
+    thickness: f32,
+    /// Texel of the square's first corner.
+    corner: (u32, u32),
+    /// Side, texels.
+    side: u32,
+}
+
+/// Lowers `block_min` to the shallowest hit of the square's rays when it is shallower; none of
+/// them hits above `floor`. Wide squares find their own floor, then split in four by four.
+fn trace_square(mm: &MaxMip, sq: &Square, floor: f32, block_min: &mut f32) {
+    if floor >= *block_min {
+        return;
+    }
+    let (i0, j0) = sq.corner;
+    if sq.side >= FLOOR_MIN_SIDE {
+        let corner = [i0 as f32 + 0.5, j0 as f32 + 0.5];
+        let floor = block_floor(mm, sq.dir, sq.thickness, corner, (sq.side - 1) as f32, floor);
+        let sub = sq.side / 4;
+        for j in (j0..j0 + sq.side).step_by(sub as usize) {
+            for i in (i0..i0 + sq.side).step_by(sub as usize) {
+                trace_square(mm, &Square { corner: (i, j), side: sub, ..*sq }, floor, block_min);
+            }
+        }
+        return;
+    }
+    let start = BAKE_START_LEVEL.min(mm.levels() - 1);
+    let dz = sq.dir[2] / sq.thickness;
+    for j in j0..j0 + sq.side {
+        for i in i0..i0 + sq.side {
+            if floor >= *block_min {
+                return;
+            }
+            let ray = ReliefRay { origin: [i as f32 + 0.5, j as f32 + 0.5], dir: sq.dir, thickness: sq.thickness };
+            let stop = *block_min / dz;
+            let mut reads = 0;
+            let s = first_hit_maxmip(mm, &ray, (floor / dz, stop), (start, 0), &mut reads);
+            if s < stop {
+                *block_min = block_min.min(s * dz);
+            }
+        }
+    }
+}
+
+/// A depth no ray of a block can hit above: the rays enter the top plane at the points of the
+/// square `[corner, corner + side]²` and travel along `dir`, and none hits above depth `from`;
+/// the square is swept down from there in steps
+/// of one max-mip block of the block's own size, and the first step whose swept area holds a
+/// height reaching the step's depth bounds the block's shallowest hit from above the true one.
+pub fn block_floor(mm: &MaxMip, dir: [f32; 3], thickness: f32, corner: [f32; 2], side: f32, from: f32) -> f32 {
+    let level = (side + 1.0).log2().floor().clamp(0.0, (mm.levels() - 1) as f32) as u32;
+    let size = (1u32 << level) as f32;
+    let horizontal = (dir[0] * dir[0] + dir[1] * dir[1]).sqrt();
+    // Horizontal texels travelled per unit of depth, and the depth of one step.
+    let run = horizontal * thickness / dir[2];
+    let step = if run * size > 0.0 { size / run } else { 1.0 };
+    let (ux, uy) = if horizontal > 0.0 { (dir[0] / horizontal, dir[1] / horizontal) } else { (0.0, 0.0) };
+    let mut z0 = from;
+    while z0 < 1.0 {
+        let z1 = (z0 + step).min(1.0);
+        // The square swept from depth z0 to z1, in blocks of `level`.
+        let (ax, bx) = (corner[0] + z0 * run * ux, corner[0] + z1 * run * ux);
+        let (ay, by) = (corner[1] + z0 * run * uy, corner[1] + z1 * run * uy);
+        let (x0, x1) = ((ax.min(bx) / size).floor() as i64, ((ax.max(bx) + side) / size).floor() as i64);
+        let (y0, y1) = ((ay.min(by) / size).floor() as i64, ((ay.max(by) + side) / size).floor() as i64);
+        let mut top = 0.0f32;
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                top = top.max(mm.max_height(level, x, y));
+            }
+        }
+        if 1.0 - top <= z1 {
+            return z0.max(1.0 - top);
+        }
+        z0 = z1;
+    }
+    1.0
 }
 
 /// MIN-downscales a row-major `w × h` map by `factor` in both directions (eq. 2 applied
