@@ -331,6 +331,7 @@ fn relief_one_shot_adds_depth_maps_and_refuses_bad_settings() {
         (vec!["--size", "48"], "power of two"),
         (vec!["--size", "512"], "at most the map width 256"),
         (vec!["--depth-scale", "0"], "depth_scale"),
+        (vec!["--preset", "paper-192k", "--theta", "8"], "sets theta, phi, size and format"),
     ] {
         let mut full = vec!["relief", "data/relief_bricks.png", "--out", "b"];
         full.extend(args);
@@ -351,6 +352,16 @@ fn relief_one_shot_adds_depth_maps_and_refuses_bad_settings() {
     let manifest = String::from_utf8(dir.read("c/bundle.ron")).unwrap();
     let table: String = manifest.split_whitespace().collect();
     assert!(table.contains("directions:[(22.5,0.0),(22.5,120.0),(22.5,240.0),(67.5,0.0),"), "{manifest}");
+    // The paper's 192 KB: 192 one-byte 32² maps, 12 zenith rows (3.75° apart) × 16 azimuths.
+    dir.run(&["relief", "data/relief_bricks.png", "--out", "e", "--preset", "paper-192k"]);
+    dir.run(&["export", "e", "relief_bricks.relief", "--raw", "--out", "e.f32"]);
+    assert_eq!(dir.read("e.f32").len(), 192 * 32 * 32 * 4);
+    let manifest: String = String::from_utf8(dir.read("e/bundle.ron")).unwrap().split_whitespace().collect();
+    assert!(manifest.contains("theta:12,phi:16,") && manifest.contains("(3.75,0.0),(3.75,22.5),"), "{manifest}");
+    let ktx = std::fs::read_dir(dir.path("e")).unwrap().map(|e| e.unwrap().path());
+    let payload = ktx.filter(|p| p.to_string_lossy().contains(".relief.")).map(|p| std::fs::metadata(p).unwrap().len());
+    let bytes: u64 = payload.sum();
+    assert!((192 * 1024..192 * 1024 + 1024).contains(&bytes), "{bytes} bytes: 192 KiB of maps and a KTX2 header");
 }
 
 /// `export --gltf` of the ribbon mesh: a well-formed GLB whose accessors describe exactly the

@@ -4,20 +4,124 @@ use hikage_runtime::{CpuBundle, DrawOptions, GpuBundle};
 
 use crate::util::{Dir, gpu};
 
-/// A relief quad traced on the GPU by every tracer agrees with the CPU reference of the same
-/// tracer: the hit within one texel on at least 99% of the quad's pixels, and the read counts
-/// equal on most of them (the same search, step for step).
+/// The row a ray's estimate is read from, by both direction rules, on the GPU (`relief_pick`)
+/// and on the CPU (`ReliefDirections::pick`): the same layer for every direction away from a
+/// row or azimuth boundary, on a table of 8 rows × 12 azimuths.
+#[test]
+fn direction_rules_pick_the_same_layer_on_gpu_and_cpu() {
+    use hikage_bundle::relief::{DirectionRule, ReliefDirections};
+    use hikage_runtime::relief::{RELIEF_WGSL, ReliefUniform};
+    use hikage_runtime::wgpu;
+
+    let Some(g) = gpu("direction_rules_pick_the_same_layer_on_gpu_and_cpu") else { return };
+    let dirs = ReliefDirections { theta: 8, phi: 12 };
+    // Zenith angles over the whole hemisphere in steps of 0.1°, at 36 azimuths each.
+    let mut rays: Vec<[f32; 4]> = Vec::new();
+    for t in 0..900 {
+        for p in 0..36 {
+            let (theta, phi) = ((t as f32 * 0.1 + 0.05).to_radians(), (p as f32 * 10.0 + 3.0).to_radians());
+            rays.push([theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos(), 0.0]);
+        }
+    }
+    let shader = format!(
+        "{RELIEF_WGSL}
+        @group(1) @binding(0) var<storage, read> rays: array<vec4<f32>>;
+        @group(1) @binding(1) var<storage, read_write> picked: array<u32>;
+        @compute @workgroup_size(64)
+        fn pick(@builtin(global_invocation_id) id: vec3<u32>) {{
+            if id.x < arrayLength(&rays) {{ picked[id.x] = relief_pick(rays[id.x].xyz); }}
+        }}"
+    );
+    let module = g.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("relief_pick"),
+        source: wgpu::ShaderSource::Wgsl(shader.into()),
+    });
+    let pipeline = g.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("relief_pick"),
+        layout: None,
+        module: &module,
+        entry_point: Some("pick"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let ray_bytes = hikage_runtime::bytemuck::cast_slice(&rays);
+    let ray_buf = g.buffer(ray_bytes.len() as u64, wgpu::BufferUsages::STORAGE, Some(ray_bytes));
+    let out = g.buffer(rays.len() as u64 * 4, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC, None);
+    for rule in [DirectionRule::Nearest, DirectionRule::Zenith] {
+        let uniform = ReliefUniform {
+            theta_rows: dirs.theta,
+            phi_cols: dirs.phi,
+            direction_rule: rule.code(),
+            ..Default::default()
+        };
+        let ubytes = hikage_runtime::bytemuck::bytes_of(&uniform);
+        let ubuf = g.buffer(ubytes.len() as u64, wgpu::BufferUsages::UNIFORM, Some(ubytes));
+        let group = |index: u32, entries: &[wgpu::BindGroupEntry<'_>]| {
+            g.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: None,
+                layout: &pipeline.get_bind_group_layout(index),
+                entries,
+            })
+        };
+        let relief = group(0, &[wgpu::BindGroupEntry { binding: 2, resource: ubuf.as_entire_binding() }]);
+        let io = group(
+            1,
+            &[
+                wgpu::BindGroupEntry { binding: 0, resource: ray_buf.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: out.as_entire_binding() },
+            ],
+        );
+        let mut encoder = g.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &relief, &[]);
+            pass.set_bind_group(1, &io, &[]);
+            pass.dispatch_workgroups((rays.len() as u32).div_ceil(64), 1, 1);
+        }
+        g.queue.submit([encoder.finish()]);
+        let picked: Vec<u32> =
+            g.read_buffer(&out).chunks_exact(4).map(|c| u32::from_le_bytes(c.try_into().unwrap())).collect();
+        let (mut compared, mut differ) = (0, 0);
+        let band = 90.0 / dirs.theta as f32;
+        for (ray, &gpu_layer) in rays.iter().zip(&picked) {
+            let cpu_layer = dirs.pick([ray[0], ray[1], ray[2]], rule);
+            // Skip directions within 0.01° of a row boundary (f32 atan2 may fall either way).
+            let theta = ray[0].hypot(ray[1]).atan2(ray[2]).to_degrees();
+            let edge = match rule {
+                DirectionRule::Nearest => theta / band,
+                DirectionRule::Zenith => theta / band - 0.5,
+            };
+            if (edge - edge.round()).abs() * band < 0.01 {
+                continue;
+            }
+            compared += 1;
+            differ += (cpu_layer != gpu_layer) as u32;
+        }
+        // The rules really differ on this table, so the test tells them apart.
+        let other = if rule == DirectionRule::Nearest { DirectionRule::Zenith } else { DirectionRule::Nearest };
+        let apart = rays.iter().zip(&picked).filter(|(r, l)| dirs.pick([r[0], r[1], r[2]], other) != **l).count();
+        eprintln!("{rule:?}: {compared} directions, {differ} differ; {apart} differ from the other rule");
+        assert_eq!(differ, 0, "{rule:?}");
+        assert!(apart > rays.len() / 3, "{rule:?}: only {apart} directions tell the rules apart");
+    }
+}
+
+/// A relief quad traced on the GPU by every tracer, with both direction rules and both
+/// visibility paths, agrees with the CPU reference of the same settings: the hit within one
+/// texel on at least 99% of the quad's pixels, and the read counts equal on most of them (the
+/// same search, step for step).
 #[test]
 fn relief_quad_render_matches_the_cpu_tracers() {
     use hikage_runtime::glam::Vec3;
-    use hikage_runtime::relief::{Reads, ReliefMaps, Tracer};
+    use hikage_runtime::relief::{DirectionRule, Reads, ReliefMaps, Tracer, VisibilityPath};
     use hikage_scenes::relief_plane::{PlaneView, SHADOW_BIAS, camera_ray, render};
 
     let dir = Dir::new("gpu_relief");
     dir.copy_data();
     dir.run(&["relief", "data/relief_bricks.png", "--out", "bundle", "--theta", "16", "--phi", "16"]);
     let cpu = CpuBundle::read(&dir.path("bundle")).unwrap();
-    let maps = ReliefMaps::from_bundle(&cpu, "relief_bricks.relief").unwrap();
+    let mut maps = ReliefMaps::from_bundle(&cpu, "relief_bricks.relief").unwrap();
     let Some(g) = gpu("relief_quad_render_matches_the_cpu_tracers") else { return };
     let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
     let (mv, dv) = (&gb.textures["relief_bricks.maxmip"].view, &gb.textures["relief_bricks.relief"].view);
@@ -31,12 +135,18 @@ fn relief_quad_render_matches_the_cpu_tracers() {
         shadows: true,
         ao_stride: 16,
     };
-    for tracer in [
+    let tracers = [
         Tracer::Linear { steps: 48, binary: 6 },
         Tracer::DepthMap { steps: 32, binary: 6 },
         Tracer::MaxMip { start_level: 8, stop_level: 0 },
         Tracer::Combined { margin: 0.1, start_level: 3 },
-    ] {
+    ];
+    let reads = [
+        (DirectionRule::Nearest, VisibilityPath::MaxMip),
+        (DirectionRule::Zenith, VisibilityPath::Seed { steps: 32, binary: 6 }),
+    ];
+    for (tracer, (rule, visibility)) in tracers.into_iter().flat_map(|t| reads.map(|r| (t, r))) {
+        (maps.rule, maps.visibility) = (rule, visibility);
         let (_, pixels) = render(&g, &maps, tracer, &view, mv, dv);
         let (mut quad, mut close, mut same_reads, mut same_shade) = (0, 0, 0, 0);
         let (mut lit_count, mut ao_sum) = (0, 0.0);
@@ -59,8 +169,9 @@ fn relief_quad_render_matches_the_cpu_tracers() {
         }
         let share = close as f64 / quad as f64;
         eprintln!(
-            "{}: {quad} quad pixels, {:.2}% within a texel, {:.2}% with equal read counts, {:.2}% same shadow and AO",
+            "{} ({rule:?}, {}): {quad} quad pixels, {:.2}% within a texel, {:.2}% with equal read counts, {:.2}% same shadow and AO",
             tracer.name(),
+            visibility.name(),
             100.0 * share,
             100.0 * same_reads as f64 / quad as f64,
             100.0 * same_shade as f64 / quad as f64

@@ -4,11 +4,12 @@
 use std::path::Path;
 
 use hikage_bake::heightfield::{Heightfield, LoadOptions, load_samples};
-use hikage_bake::relief::{self, ReliefParams};
+use hikage_bake::jobs::ReliefPreset;
+use hikage_bake::relief::{self, ReliefFormat, ReliefParams};
 use hikage_bundle::relief::{MaxMip, ReliefRay, first_hit_maxmip};
 use hikage_devkit::brute_force;
 use hikage_devkit::synth;
-use hikage_runtime::relief::{Reads, ReliefMaps, Tracer, fine_march};
+use hikage_runtime::relief::{DirectionRule, Reads, ReliefMaps, Tracer, VisibilityPath, fine_march};
 use rayon::prelude::*;
 
 use crate::best_of;
@@ -183,71 +184,271 @@ pub fn run() {
     if std::env::var_os("HIKAGE_BENCH_BAKE_ONLY").is_some() {
         return;
     }
+    reads_table(&defaults);
+    visibility_table(&defaults);
+    sizes_table(&defaults);
+}
 
+/// The runtime's maps from a bake, read by `rule`.
+fn maps_of(hf: &Heightfield, params: &ReliefParams, rule: DirectionRule) -> ReliefMaps {
+    let baked = relief::bake(hf, params, &|_, _| {}).expect("valid");
+    let info = hikage_bundle::ReliefSettings {
+        max_mip: String::new(),
+        theta: params.theta,
+        phi: params.phi,
+        depth_scale: params.depth_scale,
+        source_size: (hf.width, hf.height),
+        directions: Vec::new(),
+    };
+    let maps = ReliefMaps::from_textures(&info, &baked.depth, &baked.max_mip).expect("consistent");
+    ReliefMaps { rule, ..maps }
+}
+
+/// The cheapest tracer of `list` meeting the bar, as (tracer, share off, height reads, depth
+/// reads), or the most accurate one when none does (`Err`).
+type Outcome = (Tracer, (f64, f64, f64));
+fn cheapest(maps: &ReliefMaps, list: &[Tracer], rays: &[ReliefRay], truth: &[f32]) -> Result<Outcome, Outcome> {
+    let results: Vec<_> = list.iter().map(|&t| (t, evaluate(maps, t, rays, truth))).collect();
+    let best = results
+        .iter()
+        .filter(|(_, (bad, _, _))| *bad <= BAR)
+        .min_by(|a, b| (a.1.1 + a.1.2).total_cmp(&(b.1.1 + b.1.2)));
+    match best {
+        Some(&b) => Ok(b),
+        None => Err(*results.iter().min_by(|a, b| a.1.0.total_cmp(&b.1.0)).expect("candidates")),
+    }
+}
+
+/// One row of a reads table; returns the total reads when the bar was met. A baseline row
+/// (`baseline` NaN) is its own baseline.
+fn reads_row(first: &str, label: &str, outcome: Result<Outcome, Outcome>, baseline: f64) -> Option<f64> {
+    match outcome {
+        Ok((t, (bad, height, depth))) => {
+            let total = height + depth;
+            let baseline = if baseline.is_nan() { total } else { baseline };
+            println!(
+                "| {first} | {label} | {} | {:.2}% | {height:.1} | {depth:.1} | {total:.1} | {:.2}× |",
+                setting(&t),
+                100.0 * bad,
+                total / baseline
+            );
+            Some(total)
+        }
+        Err((t, (bad, h, d))) => {
+            println!(
+                "| {first} | {label} | none reaches the bar; best: {} | {:.2}% | {h:.1} | {d:.1} | {:.1} | — |",
+                setting(&t),
+                100.0 * bad,
+                h + d
+            );
+            None
+        }
+    }
+}
+
+fn rule_name(rule: DirectionRule) -> &'static str {
+    match rule {
+        DirectionRule::Nearest => "nearest row",
+        DirectionRule::Zenith => "zenith rule",
+    }
+}
+
+/// Reads per ray at the accuracy bar: every tracer on the paper's 32² maps, the two tracers
+/// that read depth maps by both direction rules, on coarser and finer maps, and on the
+/// 192 KiB preset.
+fn reads_table(defaults: &ReliefParams) {
     println!(
-        "Reads per ray at equal accuracy (≤ 1% of rays more than 1 texel from a 1/16-texel march; 22,500 rays per family, view angles 0–80°, 256² maps, 512 directions, 32² 8-bit depth maps)\n"
+        "Reads per ray at equal accuracy (≤ 1% of rays more than 1 texel from a 1/16-texel march; 22,500 rays per family, view angles 0–80°, 256² maps, 512 directions, 32² 8-bit depth maps unless named)\n"
     );
     println!(
         "| family | tracer | cheapest setting meeting the bar | rays > 1 texel | height reads | depth-map reads | total | vs (a) |"
     );
     println!("|---|---|---|---|---|---|---|---|");
+    let preset = ReliefPreset::Paper192K.params();
     for name in ["fbm", "bricks", "spikes"] {
         let hf = load(name);
         let mut baseline = f64::NAN;
-        // The paper's 32² maps for every tracer, then coarser and finer maps for the two that
-        // read them.
-        for size in [32u32, 16, 128] {
-            let settings = ReliefParams { size: Some(size), ..defaults.clone() };
-            let baked = relief::bake(&hf, &settings, &|_, _| {}).expect("valid");
-            let info = hikage_bundle::ReliefSettings {
-                max_mip: String::new(),
-                theta: settings.theta,
-                phi: settings.phi,
-                depth_scale: settings.depth_scale,
-                source_size: (hf.width, hf.height),
-                directions: Vec::new(),
-            };
-            let maps = ReliefMaps::from_textures(&info, &baked.depth, &baked.max_mip).expect("consistent");
+        let mut configs: Vec<(ReliefParams, DirectionRule, String)> = Vec::new();
+        for rule in [DirectionRule::Nearest, DirectionRule::Zenith] {
+            configs.push((defaults.clone(), rule, format!("32² maps, {}", rule_name(rule))));
+        }
+        let rule = DirectionRule::default();
+        for size in [16u32, 128] {
+            configs.push((
+                ReliefParams { size: Some(size), ..defaults.clone() },
+                rule,
+                format!("{size}² maps, {}", rule_name(rule)),
+            ));
+        }
+        configs.push((preset.clone(), rule, format!("paper-192k: 12 × 16 directions, {}", rule_name(rule))));
+        for (k, (params, rule, what)) in configs.iter().enumerate() {
+            let maps = maps_of(&hf, params, *rule);
             let rays = rays(&maps);
             let truth: Vec<f32> = rays.par_iter().map(|r| fine_march(&maps.max_mip, r)).collect();
             for list in candidates(maps.max_mip.levels() - 1) {
                 let reads_maps = matches!(list[0], Tracer::DepthMap { .. } | Tracer::Combined { .. });
-                if size != 32 && !reads_maps {
+                if k > 0 && !reads_maps {
                     continue;
                 }
                 let label =
-                    if reads_maps { format!("{} [{size}² maps]", list[0].name()) } else { list[0].name().to_string() };
-                let results: Vec<_> = list.iter().map(|&t| (t, evaluate(&maps, t, &rays, &truth))).collect();
-                let best = results
-                    .iter()
-                    .filter(|(_, (bad, _, _))| *bad <= BAR)
-                    .min_by(|a, b| (a.1.1 + a.1.2).total_cmp(&(b.1.1 + b.1.2)));
-                match best {
-                    Some(&(t, (bad, height, depth))) => {
-                        let total = height + depth;
-                        if matches!(t, Tracer::Linear { .. }) {
-                            baseline = total;
-                        }
-                        println!(
-                            "| {name} | {label} | {} | {:.2}% | {height:.1} | {depth:.1} | {total:.1} | {:.2}× |",
-                            setting(&t),
-                            100.0 * bad,
-                            total / baseline
-                        );
-                    }
-                    None => {
-                        let &(t, (bad, h, d)) =
-                            results.iter().min_by(|a, b| a.1.0.total_cmp(&b.1.0)).expect("candidates");
-                        println!(
-                            "| {name} | {label} | none reaches the bar; best: {} | {:.2}% | {h:.1} | {d:.1} | {:.1} | — |",
-                            setting(&t),
-                            100.0 * bad,
-                            h + d
-                        );
-                    }
+                    if reads_maps { format!("{} [{what}]", list[0].name()) } else { list[0].name().to_string() };
+                let total = reads_row(name, &label, cheapest(&maps, &list, &rays, &truth), baseline);
+                if matches!(list[0], Tracer::Linear { .. }) {
+                    baseline = total.unwrap_or(f64::NAN);
                 }
             }
         }
+    }
+    println!();
+}
+
+/// Shadows and ambient occlusion by both visibility paths against the exact answer on the
+/// full-resolution surface: agreement and reads per test.
+fn visibility_table(defaults: &ReliefParams) {
+    let bias = 0.02;
+    println!(
+        "Shadows and ambient occlusion against the exact answer (max-mip on the full-resolution surface; bias {bias} depth; 32² 8-bit maps, 512 directions, {}; points: the view rays' hits; lights 0–75° from the normal; AO over 32 directions)\n",
+        rule_name(DirectionRule::default())
+    );
+    println!(
+        "| family | path | shadow: agrees | height reads | depth reads | AO: mean abs error | height reads | depth reads |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    for name in ["fbm", "bricks", "spikes"] {
+        let hf = load(name);
+        let mut maps = maps_of(&hf, defaults, DirectionRule::default());
+        let rays = rays(&maps);
+        let mut seed = 0x2545f4914f6cdd1du64;
+        let mut next = move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let cases: Vec<([f32; 3], [f32; 3])> = rays
+            .iter()
+            .map(|r| {
+                let p = r.at(fine_march(&maps.max_mip, r));
+                let (theta, phi) = (next() * 75f32.to_radians(), next() * std::f32::consts::TAU);
+                (p, [theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()])
+            })
+            .collect();
+        let exact: Vec<bool> = cases.par_iter().map(|(p, l)| maps.lit_exact(*p, *l, bias)).collect();
+        let ao_cases = &cases[..cases.len() / 9];
+        let ao_exact: Vec<f32> = ao_cases.par_iter().map(|(p, _)| maps.ambient_occlusion_exact(*p, 16, bias)).collect();
+        let lit_share = exact.iter().filter(|&&l| l).count() as f64 / exact.len() as f64;
+        // The ambient occlusion before the visibility paths: one read per direction, open when
+        // the stored hit is not above the point.
+        let err: f64 = ao_cases
+            .par_iter()
+            .zip(&ao_exact)
+            .map(|((p, _), &e)| {
+                let (mut open, mut total) = (0.0f32, 0.0f32);
+                for layer in (0..maps.dirs.layers()).step_by(16) {
+                    let k = maps.dirs.direction(layer);
+                    let w = k[2] * k[0].hypot(k[1]);
+                    let back = p[2] * maps.thickness / k[2];
+                    let stored = maps.depth_at(layer, p[0] - back * k[0], p[1] - back * k[1]);
+                    open += if stored >= p[2] - bias { w } else { 0.0 };
+                    total += w;
+                }
+                (open / total - e).abs() as f64
+            })
+            .sum();
+        println!(
+            "| {name} ({:.0}% lit) | previous ambient occlusion: one read per direction | — | — | — | {:.4} | 0.0 | 32.0 |",
+            100.0 * lit_share,
+            err / ao_cases.len() as f64
+        );
+        for path in [
+            VisibilityPath::MaxMip,
+            VisibilityPath::Seed { steps: 16, binary: 4 },
+            VisibilityPath::Seed { steps: 32, binary: 6 },
+            VisibilityPath::Seed { steps: 64, binary: 6 },
+        ] {
+            maps.visibility = path;
+            let (agree, h, d) = cases
+                .par_iter()
+                .zip(&exact)
+                .map(|((p, l), &e)| {
+                    let mut reads = Reads::default();
+                    let lit = maps.lit(*p, *l, bias, &mut reads);
+                    ((lit == e) as u64, reads.height as u64, reads.depth as u64)
+                })
+                .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
+            let (err, ah, ad) = ao_cases
+                .par_iter()
+                .zip(&ao_exact)
+                .map(|((p, _), &e)| {
+                    let mut reads = Reads::default();
+                    let ao = maps.ambient_occlusion(*p, 16, bias, &mut reads);
+                    ((ao - e).abs() as f64, reads.height as u64, reads.depth as u64)
+                })
+                .reduce(|| (0.0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
+            let (n, m) = (cases.len() as f64, ao_cases.len() as f64);
+            let label = match path {
+                VisibilityPath::MaxMip => path.name().to_string(),
+                VisibilityPath::Seed { steps, binary } => format!("{} ({steps} steps, {binary} halvings)", path.name()),
+            };
+            println!(
+                "| {name} ({:.0}% lit) | {label} | {:.2}% | {:.1} | {:.1} | {:.4} | {:.1} | {:.1} |",
+                100.0 * lit_share,
+                100.0 * agree as f64 / n,
+                h as f64 / n,
+                d as f64 / n,
+                err / m,
+                ah as f64 / m,
+                ad as f64 / m
+            );
+        }
+    }
+    println!();
+}
+
+/// Seed 003's Fig. 11: maps MIN-downscaled from 512² full-resolution maps to each size, and
+/// the reads of the seed's tracer at the bar against plain relief mapping's, per size.
+fn sizes_table(defaults: &ReliefParams) {
+    let n = 512u32;
+    let hf = Heightfield::from_samples(n, n, synth::fbm_relief(n));
+    let full = ReliefParams { size: Some(n), format: ReliefFormat::R16Float, ..defaults.clone() };
+    let (t, base) = best_of(1, || maps_of(&hf, &full, DirectionRule::default()));
+    println!(
+        "Map size (seed 003 Fig. 11): fbm 512², 512 directions, full-resolution maps ({t:.1} s) MIN-downscaled to each size and stored in 8 bits; reads per ray at the bar as above\n"
+    );
+    println!(
+        "| maps | memory | (b) setting | (b) height reads | (b) depth reads | (b) total | (a) total | (b) vs (a) | (d) total | (d) vs (a) |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    let rays = rays(&base);
+    let truth: Vec<f32> = rays.par_iter().map(|r| fine_march(&base.max_mip, r)).collect();
+    let lists = candidates(base.max_mip.levels() - 1);
+    let linear = cheapest(&base, &lists[0], &rays, &truth);
+    let a_total = linear.map(|(_, (_, h, d))| h + d).unwrap_or(f64::NAN);
+    let layers = base.dirs.layers() as usize;
+    for size in [512u32, 256, 128, 64, 32, 16] {
+        let factor = n / size;
+        let per = (n * n) as usize;
+        let depth: Vec<f32> = (0..layers)
+            .flat_map(|l| relief::min_downscale(&base.depth[l * per..(l + 1) * per], n, n, factor))
+            .map(|d| ReliefFormat::R8Unorm.round_down(d))
+            .collect();
+        let maps = ReliefMaps { depth, depth_size: (size, size), ..base.clone() };
+        let b = cheapest(&maps, &lists[1], &rays, &truth);
+        let d = cheapest(&maps, &lists[3], &rays, &truth);
+        let total = |o: &Result<Outcome, Outcome>| o.as_ref().ok().map(|(_, (_, h, d))| h + d);
+        let memory = (size * size) as f64 * layers as f64 / 1024.0;
+        let memory = if memory >= 1024.0 { format!("{:.0} MiB", memory / 1024.0) } else { format!("{memory:.0} KiB") };
+        let (bs, bh, bd) = match &b {
+            Ok((t, (_, h, d))) => (setting(t), format!("{h:.1}"), format!("{d:.1}")),
+            Err(_) => ("none reaches the bar".into(), "—".into(), "—".into()),
+        };
+        let fmt = |v: Option<f64>| v.map(|v| format!("{v:.1}")).unwrap_or("—".into());
+        let ratio = |v: Option<f64>| v.map(|v| format!("{:.2}×", v / a_total)).unwrap_or("—".into());
+        println!(
+            "| {size}² | {memory} | {bs} | {bh} | {bd} | {} | {a_total:.1} | {} | {} | {} |",
+            fmt(total(&b)),
+            ratio(total(&b)),
+            fmt(total(&d)),
+            ratio(total(&d))
+        );
     }
     println!();
 }

@@ -45,17 +45,46 @@ impl ReliefDirections {
         [theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()]
     }
 
-    /// The layer nearest a travel direction (any length, `z` down): the zenith row whose band
-    /// holds the direction's θ (a tie goes to the row nearer the zenith), the nearest azimuth.
-    pub fn nearest(&self, dir: [f32; 3]) -> u32 {
+    /// The layer whose stored hit a ray along `dir` (any length, `z` down) starts from, by
+    /// `rule`; the azimuth is always the nearest.
+    pub fn pick(&self, dir: [f32; 3], rule: DirectionRule) -> u32 {
         let horizontal = (dir[0] * dir[0] + dir[1] * dir[1]).sqrt();
         let theta = horizontal.atan2(dir[2].max(0.0));
-        let row = ((theta / FRAC_PI_2 * self.theta as f32).ceil() as i64 - 1).clamp(0, self.theta as i64 - 1) as u32;
+        let rows = theta / FRAC_PI_2 * self.theta as f32;
+        let row = match rule {
+            // The band holding θ; a tie goes to the row nearer the zenith.
+            DirectionRule::Nearest => rows.ceil() as i64 - 1,
+            // The nearest row whose θ is not larger than the ray's.
+            DirectionRule::Zenith => (rows - 0.5).floor() as i64,
+        };
+        let row = row.clamp(0, self.theta as i64 - 1) as u32;
         // Written the way the WGSL mirror computes it (no rem_euclid, round half up).
         let phi = dir[1].atan2(dir[0]);
         let phi = if phi < 0.0 { phi + TAU } else { phi };
         let col = ((phi / TAU * self.phi as f32 + 0.5).floor() as u32) % self.phi;
         row * self.phi + col
+    }
+}
+
+/// Which zenith row of the direction table a ray's depth-map estimate is read from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum DirectionRule {
+    /// The row nearest the ray's zenith angle.
+    Nearest,
+    /// The nearest row at or above the ray (closer to the zenith), as seed 003 prescribes: a
+    /// steeper sample ray meets the relief no later along the view ray, so the estimate tends
+    /// to land before the nearest bump rather than beyond it.
+    #[default]
+    Zenith,
+}
+
+impl DirectionRule {
+    /// The value of the WGSL uniform's `direction_rule` field.
+    pub fn code(self) -> u32 {
+        match self {
+            DirectionRule::Nearest => 0,
+            DirectionRule::Zenith => 1,
+        }
     }
 }
 
@@ -331,12 +360,41 @@ mod tests {
     }
 
     #[test]
-    fn nearest_direction_is_the_layer_itself() {
+    fn a_table_direction_picks_its_own_layer_by_the_nearest_rule() {
         let dirs = ReliefDirections { theta: 8, phi: 12 };
         for layer in 0..dirs.layers() {
-            assert_eq!(dirs.nearest(dirs.direction(layer)), layer);
+            assert_eq!(dirs.pick(dirs.direction(layer), DirectionRule::Nearest), layer);
         }
-        // Straight down falls in the first row.
-        assert_eq!(dirs.nearest([0.0, 0.0, 1.0]) / 12, 0);
+        // Straight down falls in the first row by either rule.
+        assert_eq!(dirs.pick([0.0, 0.0, 1.0], DirectionRule::Nearest) / 12, 0);
+        assert_eq!(dirs.pick([0.0, 0.0, 1.0], DirectionRule::Zenith) / 12, 0);
+    }
+
+    /// Rows by hand on a 4-row table (rows at 11.25°, 33.75°, 56.25°, 78.75°, bands 22.5° wide):
+    /// the nearest rule takes the band, the zenith rule the row at or above.
+    #[test]
+    fn row_choice_of_both_rules() {
+        let dirs = ReliefDirections { theta: 4, phi: 1 };
+        let at = |deg: f32| {
+            let t = deg.to_radians();
+            [t.sin(), 0.0, t.cos()]
+        };
+        for (deg, nearest, zenith) in [
+            (5.0, 0, 0),
+            (11.0, 0, 0),
+            (12.0, 0, 0),
+            (20.0, 0, 0),
+            (23.0, 1, 0),
+            (33.0, 1, 0),
+            (34.5, 1, 1),
+            (50.0, 2, 1),
+            (57.0, 2, 2),
+            (70.0, 3, 2),
+            (80.0, 3, 3),
+            (89.9, 3, 3),
+        ] {
+            assert_eq!(dirs.pick(at(deg), DirectionRule::Nearest), nearest, "nearest at {deg}°");
+            assert_eq!(dirs.pick(at(deg), DirectionRule::Zenith), zenith, "zenith at {deg}°");
+        }
     }
 }

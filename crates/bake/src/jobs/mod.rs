@@ -27,7 +27,7 @@ use crate::limits::InputLimits;
 pub use curvature::CurvatureJob;
 pub use heightfield::{HeightFormat, HeightfieldJob};
 pub use horizon::HorizonJob;
-pub use relief::ReliefJob;
+pub use relief::{ReliefJob, ReliefPreset};
 pub use strands::StrandsJob;
 
 /// One job of a pipeline. The variant names the baker; [`Job::baker`] is the only place that

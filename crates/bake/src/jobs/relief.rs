@@ -53,6 +53,36 @@ pub struct ReliefJob {
     #[serde(default)]
     #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = ReliefFormat::R8Unorm))]
     pub format: ReliefFormat,
+    /// A configuration of seed 003 by name; it sets theta, phi, size and format, which are then
+    /// left at their defaults.
+    #[serde(default)]
+    #[cfg_attr(feature = "clap", arg(long, value_enum))]
+    pub preset: Option<ReliefPreset>,
+}
+
+/// Named relief settings that reproduce a configuration of seed 003.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum ReliefPreset {
+    /// The paper's stated direction table: 32 zenith rows × 16 azimuths of 32² 8-bit maps,
+    /// 512 KiB (the defaults).
+    #[cfg_attr(feature = "clap", value(name = "paper-table"))]
+    PaperTable,
+    /// The paper's stated memory, 192 KB — one 256×256 RGB8 texture, i.e. 192 one-byte 32²
+    /// maps — as 12 zenith rows × 16 azimuths.
+    #[cfg_attr(feature = "clap", value(name = "paper-192k"))]
+    Paper192K,
+}
+
+impl ReliefPreset {
+    /// The preset's parameters at the default depth scale.
+    pub fn params(self) -> ReliefParams {
+        let d = ReliefParams::default();
+        match self {
+            ReliefPreset::PaperTable => ReliefParams { theta: 32, phi: 16, size: Some(32), ..d },
+            ReliefPreset::Paper192K => ReliefParams { theta: 12, phi: 16, size: Some(32), ..d },
+        }
+    }
 }
 
 fn default_theta() -> u32 {
@@ -81,17 +111,21 @@ impl ReliefJob {
             size: d.size,
             depth_scale: d.depth_scale,
             format: d.format,
+            preset: None,
         }
     }
 
-    /// The baker's parameters.
+    /// The baker's parameters: the preset's, if any, with this job's depth scale.
     pub fn params(&self) -> ReliefParams {
-        ReliefParams {
-            theta: self.theta,
-            phi: self.phi,
-            size: self.size,
-            depth_scale: self.depth_scale,
-            format: self.format,
+        match self.preset {
+            Some(preset) => ReliefParams { depth_scale: self.depth_scale, ..preset.params() },
+            None => ReliefParams {
+                theta: self.theta,
+                phi: self.phi,
+                size: self.size,
+                depth_scale: self.depth_scale,
+                format: self.format,
+            },
         }
     }
 
@@ -150,6 +184,14 @@ impl Baker for ReliefJob {
     }
 
     fn check(&self) -> Result<(), String> {
+        if let Some(preset) = self.preset {
+            let d = ReliefParams::default();
+            if (self.theta, self.phi, self.size, self.format) != (d.theta, d.phi, d.size, d.format) {
+                return Err(format!(
+                    "preset {preset:?} sets theta, phi, size and format; leave them out or drop the preset"
+                ));
+            }
+        }
         self.params().check()
     }
 
@@ -160,18 +202,19 @@ impl Baker for ReliefJob {
     fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
         let hf = self.load(ctx)?;
         let path = ctx.base_dir.join(&self.input);
-        let baked = relief::bake(&hf, &self.params(), ctx.progress).map_err(|m| BakeError::input(&path, None, m))?;
+        let p = self.params();
+        let baked = relief::bake(&hf, &p, ctx.progress).map_err(|m| BakeError::input(&path, None, m))?;
         let settings = ReliefSettings {
             max_mip: self.max_mip_id(),
-            theta: self.theta,
-            phi: self.phi,
-            depth_scale: self.depth_scale,
+            theta: p.theta,
+            phi: p.phi,
+            depth_scale: p.depth_scale,
             source_size: (hf.width, hf.height),
             // Degrees from exact fractions, so the table reads 120.0, not 120.00001.
-            directions: (0..self.theta * self.phi)
+            directions: (0..p.theta * p.phi)
                 .map(|l| {
-                    let (i, j) = (l / self.phi, l % self.phi);
-                    ((90.0 * (i as f64 + 0.5) / self.theta as f64) as f32, (360.0 * j as f64 / self.phi as f64) as f32)
+                    let (i, j) = (l / p.phi, l % p.phi);
+                    ((90.0 * (i as f64 + 0.5) / p.theta as f64) as f32, (360.0 * j as f64 / p.phi as f64) as f32)
                 })
                 .collect(),
         };

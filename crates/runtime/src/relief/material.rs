@@ -3,11 +3,12 @@
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
-use super::{RELIEF_WGSL, Reads, ReliefMaps, ReliefUniform, Tracer};
+use super::{RELIEF_WGSL, Reads, ReliefMaps, ReliefUniform, Tracer, VisibilityPath};
 use crate::draw::DrawOptions;
 use crate::error::RuntimeError;
 use crate::gpu;
 use crate::upload::GpuBundle;
+use hikage_bundle::relief::DirectionRule;
 
 const MATERIAL_WGSL: &str = include_str!("../shaders/relief_material.wgsl");
 
@@ -50,6 +51,10 @@ pub struct ReliefFrame {
     pub tile: Vec2,
     /// The tracer and its setting.
     pub tracer: Tracer,
+    /// Which row of the direction table the depth-map estimates are read from.
+    pub rule: DirectionRule,
+    /// How shadows and ambient occlusion decide visibility.
+    pub visibility: VisibilityPath,
     /// Depth-map shadows.
     pub shadows: bool,
     /// Ambient occlusion over every `ao_stride`-th sample direction; 0 turns it off.
@@ -72,6 +77,8 @@ impl Default for ReliefFrame {
             albedo: Vec3::new(0.85, 0.78, 0.68),
             tile: Vec2::ONE,
             tracer: Tracer::Combined { margin: 0.1, start_level: 3 },
+            rule: DirectionRule::default(),
+            visibility: VisibilityPath::default(),
             shadows: true,
             ao_stride: 16,
             bias: 0.02,
@@ -249,7 +256,8 @@ impl ReliefMaterial {
 
     /// Writes both uniforms for `frame`; the next submitted draw uses them.
     pub fn update(&self, queue: &wgpu::Queue, frame: &ReliefFrame) {
-        queue.write_buffer(&self.tracing, 0, bytemuck::bytes_of(&self.statics.with_tracer(frame.tracer)));
+        let tracing = self.statics.with_tracer(frame.tracer).with_reads(frame.rule, frame.visibility);
+        queue.write_buffer(&self.tracing, 0, bytemuck::bytes_of(&tracing));
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&ReliefMaterialUniform::new(frame)));
     }
 
@@ -284,7 +292,8 @@ pub struct ReliefPixel {
 }
 
 /// The CPU reference of `relief_material_shade`: the material at a point of the mesh (world
-/// position, interpolated normal, tangent and uv) with `maps` and the material uniform.
+/// position, interpolated normal, tangent and uv) with `maps` and the material uniform. The
+/// maps' `rule` and `visibility` stand for the frame's.
 pub fn relief_material_shade(
     maps: &ReliefMaps,
     tracer: Tracer,

@@ -16,6 +16,7 @@
 //! visibility over the sampled directions ([`ReliefMaps::ambient_occlusion`]). Every function
 //! here is mirrored line by line in the WGSL so the GPU can be checked against it.
 
+pub use hikage_bundle::relief::DirectionRule;
 use hikage_bundle::relief::{MaxMip, ReliefDirections, ReliefRay, first_hit_maxmip};
 use hikage_bundle::{AssetKind, ReliefSettings, Settings, TextureData};
 
@@ -35,7 +36,7 @@ pub use material::{
 pub const RELIEF_WGSL: &str = include_str!("../shaders/relief.wgsl");
 
 /// The tracer's `ReliefUniform` in the WGSL: the maps' sizes and direction table, and the
-/// tracer with its setting (64 bytes).
+/// tracer, direction rule and visibility path with their settings (80 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ReliefUniform {
@@ -63,6 +64,14 @@ pub struct ReliefUniform {
     pub stop_level: u32,
     /// Combined tracer: share of the depth-map estimate stepped back.
     pub margin: f32,
+    /// [`DirectionRule::code`].
+    pub direction_rule: u32,
+    /// [`VisibilityPath::code`].
+    pub visibility: u32,
+    /// Seed visibility path: search steps over the full depth.
+    pub visibility_steps: u32,
+    /// Seed visibility path: binary-search halvings.
+    pub visibility_binary: u32,
     /// Padding.
     pub _pad: [u32; 2],
 }
@@ -81,6 +90,10 @@ pub struct ReliefMaps {
     pub dirs: ReliefDirections,
     /// Relief thickness in texels of the heightfield.
     pub thickness: f32,
+    /// Which row a ray's estimate is read from.
+    pub rule: DirectionRule,
+    /// How shadows and ambient occlusion decide visibility.
+    pub visibility: VisibilityPath,
 }
 
 /// Reads a tracer made.
@@ -156,7 +169,61 @@ impl Tracer {
     }
 }
 
+/// How [`ReliefMaps::lit`] and [`ReliefMaps::ambient_occlusion`] decide whether a direction is
+/// open from a point of the relief.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum VisibilityPath {
+    /// A direction is open when the stored hit where its ray enters the top plane is not
+    /// shallower than the point: one depth-map read. Otherwise the ray is traversed through the
+    /// max-mip pyramid from the stored depth to the point, open when nothing is hit on the way
+    /// (exact on the box surface).
+    #[default]
+    MaxMip,
+    /// Seed 003 §4: the ray toward the point is traced from where it enters the top plane like
+    /// a view ray — the depth-map estimate, a forward or backward search in steps of `1/steps`
+    /// of the depth, `binary` halvings — and the point is open when the hit is the point itself.
+    Seed {
+        /// Search steps over the full depth.
+        steps: u32,
+        /// Binary-search halvings.
+        binary: u32,
+    },
+}
+
+impl VisibilityPath {
+    /// Short name for tables.
+    pub fn name(&self) -> &'static str {
+        match self {
+            VisibilityPath::MaxMip => "stored depth, then max-mip",
+            VisibilityPath::Seed { .. } => "seed: estimate, search, binary",
+        }
+    }
+
+    /// The value of the WGSL uniform's `visibility` field.
+    pub fn code(&self) -> u32 {
+        match self {
+            VisibilityPath::MaxMip => 0,
+            VisibilityPath::Seed { .. } => 1,
+        }
+    }
+}
+
 impl ReliefUniform {
+    /// This uniform with `rule` and `visibility` in place of its own.
+    pub fn with_reads(self, rule: DirectionRule, visibility: VisibilityPath) -> ReliefUniform {
+        let (visibility_steps, visibility_binary) = match visibility {
+            VisibilityPath::MaxMip => (0, 0),
+            VisibilityPath::Seed { steps, binary } => (steps, binary),
+        };
+        ReliefUniform {
+            direction_rule: rule.code(),
+            visibility: visibility.code(),
+            visibility_steps,
+            visibility_binary,
+            ..self
+        }
+    }
+
     /// This uniform with `tracer` and its setting in place of its own.
     pub fn with_tracer(self, tracer: Tracer) -> ReliefUniform {
         let (steps, binary, start_level, stop_level, margin) = match tracer {
@@ -181,6 +248,7 @@ impl ReliefMaps {
             ..ReliefUniform::default()
         }
         .with_tracer(tracer)
+        .with_reads(self.rule, self.visibility)
     }
 
     /// The shading normal at a point of the relief (texels, `z` up): central differences of
@@ -225,6 +293,8 @@ impl ReliefMaps {
             depth: depth.channel_f32(0, 0),
             depth_size: (depth.desc.width, depth.desc.height),
             dirs,
+            rule: DirectionRule::default(),
+            visibility: VisibilityPath::default(),
         })
     }
 
@@ -243,10 +313,10 @@ impl ReliefMaps {
         ReliefRay { origin, dir, thickness: self.thickness }
     }
 
-    /// The seed's estimate of the hit length: the nearest direction's stored hit, projected onto
-    /// the view ray. One depth-map read.
+    /// The seed's estimate of the hit length: the stored hit of the direction [`Self::rule`]
+    /// picks, projected onto the view ray. One depth-map read.
     pub fn estimate(&self, ray: &ReliefRay, reads: &mut Reads) -> f32 {
-        let layer = self.dirs.nearest(ray.dir);
+        let layer = self.dirs.pick(ray.dir, self.rule);
         let k = self.dirs.direction(layer);
         reads.depth += 1;
         let d = self.depth_at(layer, ray.origin[0], ray.origin[1]);
@@ -273,6 +343,44 @@ impl ReliefMaps {
         0.5 * (lo + hi)
     }
 
+    /// The seed's search from an estimate `s0`: backward toward the entry point while inside
+    /// the solid, forward while outside, in steps of `1/steps` of the depth, then `binary`
+    /// halvings.
+    fn search(&self, ray: &ReliefRay, s0: f32, steps: u32, binary: u32, reads: &mut Reads) -> f32 {
+        let bottom = ray.s_bottom();
+        let ds = bottom / steps.max(1) as f32;
+        let (mut lo, mut hi);
+        if self.inside(ray, s0, reads) {
+            // Backward: step toward the entry point until outside.
+            hi = s0;
+            lo = 0.0;
+            while hi > 0.0 {
+                let s = (hi - ds).max(0.0);
+                if s <= 0.0 || !self.inside(ray, s, reads) {
+                    lo = s;
+                    break;
+                }
+                hi = s;
+            }
+        } else {
+            // Forward: step on until inside (the bottom plane always is).
+            lo = s0;
+            hi = bottom;
+            loop {
+                let s = lo + ds;
+                if s >= bottom {
+                    break;
+                }
+                if self.inside(ray, s, reads) {
+                    hi = s;
+                    break;
+                }
+                lo = s;
+            }
+        }
+        self.bisect(ray, lo, hi, binary, reads)
+    }
+
     /// The hit length the tracer finds for `ray`, counting reads.
     pub fn trace(&self, tracer: Tracer, ray: &ReliefRay, reads: &mut Reads) -> f32 {
         let bottom = ray.s_bottom();
@@ -292,38 +400,8 @@ impl ReliefMaps {
                 self.bisect(ray, lo, hi, binary, reads)
             }
             Tracer::DepthMap { steps, binary } => {
-                let ds = bottom / steps.max(1) as f32;
                 let s0 = self.estimate(ray, reads);
-                let (mut lo, mut hi);
-                if self.inside(ray, s0, reads) {
-                    // Backward: step toward the entry point until outside.
-                    hi = s0;
-                    lo = 0.0;
-                    while hi > 0.0 {
-                        let s = (hi - ds).max(0.0);
-                        if s <= 0.0 || !self.inside(ray, s, reads) {
-                            lo = s;
-                            break;
-                        }
-                        hi = s;
-                    }
-                } else {
-                    // Forward: step on until inside (the bottom plane always is).
-                    lo = s0;
-                    hi = bottom;
-                    loop {
-                        let s = lo + ds;
-                        if s >= bottom {
-                            break;
-                        }
-                        if self.inside(ray, s, reads) {
-                            hi = s;
-                            break;
-                        }
-                        lo = s;
-                    }
-                }
-                self.bisect(ray, lo, hi, binary, reads)
+                self.search(ray, s0, steps, binary, reads)
             }
             Tracer::MaxMip { start_level, stop_level } => {
                 first_hit_maxmip(&self.max_mip, ray, (0.0, f32::INFINITY), (start_level, stop_level), &mut reads.height)
@@ -336,28 +414,52 @@ impl ReliefMaps {
     }
 
     /// Whether the surface point at `uvz` (texels, normalised depth) sees the light along `light`
-    /// (unit, `z` up toward the light): the same search as [`Tracer::Combined`], toward the
-    /// light. The light's ray enters the top plane above the point; when the nearest direction's
-    /// stored hit there is not shallower than the point (less `bias`, a depth) it is lit after
-    /// one read; otherwise the ray is traversed from that stored depth (pulled back 10%) to the
-    /// point, and the point is lit when nothing is hit on the way.
+    /// (unit, `z` up toward the light), by [`Self::visibility`]: a hit on the way from the top
+    /// plane no more than `bias` (a depth) above the point still counts as the point.
     pub fn lit(&self, uvz: [f32; 3], light: [f32; 3], bias: f32, reads: &mut Reads) -> bool {
         if light[2] <= 0.0 {
             return false;
         }
         let (entry, dir) = self.entry_toward(uvz, light);
-        let layer = self.dirs.nearest(dir);
-        reads.depth += 1;
-        let stored = self.depth_at(layer, entry[0], entry[1]);
-        if stored >= uvz[2] - bias {
+        let ray = self.ray(entry, dir);
+        match self.visibility {
+            VisibilityPath::MaxMip => {
+                let layer = self.dirs.pick(dir, self.rule);
+                reads.depth += 1;
+                let stored = self.depth_at(layer, entry[0], entry[1]);
+                self.open_after(&ray, stored, uvz[2] - bias, reads)
+            }
+            VisibilityPath::Seed { steps, binary } => {
+                let s0 = self.estimate(&ray, reads);
+                self.search(&ray, s0, steps, binary, reads) * ray.dz() >= uvz[2] - bias
+            }
+        }
+    }
+
+    /// The max-mip path's decision for a ray whose stored hit is `stored`: open when the stored
+    /// hit is not above `depth`; otherwise open when a max-mip traversal from the stored depth
+    /// (pulled back 10%: it was stored for a nearby direction or entry point) down to `depth`
+    /// meets nothing.
+    fn open_after(&self, ray: &ReliefRay, stored: f32, depth: f32, reads: &mut Reads) -> bool {
+        if stored >= depth {
             return true;
         }
-        let ray = self.ray(entry, dir);
         let dz = ray.dz();
-        let s_point = (uvz[2] - bias).max(0.0) / dz;
+        let s_point = depth.max(0.0) / dz;
         let s_start = stored / dz * 0.9;
-        let s = first_hit_maxmip(&self.max_mip, &ray, (s_start, s_point), (2, 0), &mut reads.height);
-        s >= s_point
+        first_hit_maxmip(&self.max_mip, ray, (s_start, s_point), (2, 0), &mut reads.height) >= s_point
+    }
+
+    /// The exact answer [`Self::lit`] approximates: no hit on the full-resolution surface
+    /// between the top plane and `bias` above the point (a max-mip traversal from the top).
+    pub fn lit_exact(&self, uvz: [f32; 3], light: [f32; 3], bias: f32) -> bool {
+        if light[2] <= 0.0 {
+            return false;
+        }
+        let (entry, dir) = self.entry_toward(uvz, light);
+        let ray = self.ray(entry, dir);
+        let s_point = (uvz[2] - bias).max(0.0) / ray.dz();
+        first_hit_maxmip(&self.max_mip, &ray, (0.0, s_point), (self.max_mip.levels(), 0), &mut 0) >= s_point
     }
 
     /// Where the ray from the top plane along `-toward` (unit, `z` up) reaching `uvz` enters,
@@ -368,10 +470,33 @@ impl ReliefMaps {
     }
 
     /// Cosine-weighted share of the hemisphere above `uvz` that is open, over every `stride`-th
-    /// sample direction: a direction is open when its stored hit at the entry point is not
-    /// shallower than the point (less `bias`).
+    /// sample direction, each decided by [`Self::visibility`] as [`Self::lit`] does (the
+    /// direction is the layer's own, so its stored hit is the estimate).
     pub fn ambient_occlusion(&self, uvz: [f32; 3], stride: u32, bias: f32, reads: &mut Reads) -> f32 {
-        let (mut open, mut total) = (0.0, 0.0);
+        self.occlusion_by(uvz, stride, |layer, entry, k| {
+            reads.depth += 1;
+            let stored = self.depth_at(layer, entry[0], entry[1]);
+            let ray = self.ray(entry, k);
+            match self.visibility {
+                VisibilityPath::MaxMip => self.open_after(&ray, stored, uvz[2] - bias, reads),
+                VisibilityPath::Seed { steps, binary } => {
+                    let dz = ray.dz();
+                    self.search(&ray, stored / dz, steps, binary, reads) * dz >= uvz[2] - bias
+                }
+            }
+        })
+    }
+
+    /// The exact answer [`Self::ambient_occlusion`] approximates: each direction decided on the
+    /// full-resolution surface as [`Self::lit_exact`].
+    pub fn ambient_occlusion_exact(&self, uvz: [f32; 3], stride: u32, bias: f32) -> f32 {
+        self.occlusion_by(uvz, stride, |_, _, k| self.lit_exact(uvz, [-k[0], -k[1], k[2]], bias))
+    }
+
+    /// Cosine-weighted open share over every `stride`-th direction, `open(layer, entry, travel
+    /// direction)` deciding each.
+    fn occlusion_by(&self, uvz: [f32; 3], stride: u32, mut open: impl FnMut(u32, [f32; 2], [f32; 3]) -> bool) -> f32 {
+        let (mut seen, mut total) = (0.0, 0.0);
         let mut layer = 0;
         while layer < self.dirs.layers() {
             let k = self.dirs.direction(layer);
@@ -379,14 +504,13 @@ impl ReliefMaps {
             // cos θ for the cosine lobe, sin θ for the band's solid angle.
             let w = k[2] * (k[0] * k[0] + k[1] * k[1]).sqrt();
             let (entry, _) = self.entry_toward(uvz, up);
-            reads.depth += 1;
-            if self.depth_at(layer, entry[0], entry[1]) >= uvz[2] - bias {
-                open += w;
+            if open(layer, entry, k) {
+                seen += w;
             }
             total += w;
             layer += stride.max(1);
         }
-        if total > 0.0 { open / total } else { 1.0 }
+        if total > 0.0 { seen / total } else { 1.0 }
     }
 }
 
@@ -439,44 +563,62 @@ mod tests {
                 }
             }
         }
-        ReliefMaps { max_mip, depth, depth_size: (n, n), dirs, thickness }
+        ReliefMaps {
+            max_mip,
+            depth,
+            depth_size: (n, n),
+            dirs,
+            thickness,
+            rule: DirectionRule::Nearest,
+            visibility: VisibilityPath::MaxMip,
+        }
     }
 
+    /// Both visibility paths, and the exact answer they approximate.
     #[test]
     fn wall_shadow_has_its_analytic_length() {
-        let maps = wall();
+        let mut maps = wall();
         // Light from −u (it travels toward +u): θ of row 1 = 33.75°, φ = 180°: toward the
         // light is (−sin θ, 0, cos θ). The floor (depth 1) east of the wall (u ≥ 20) is shadowed
         // up to u = 20 + 8·tan θ.
         let (theta, _) = maps.dirs.angles(maps.dirs.phi + 2); // row 1, φ = 180°
         let light = [-theta.sin(), 0.0, theta.cos()];
         let end = 20.0 + 8.0 * theta.tan();
-        let mut reads = Reads::default();
-        for k in 0..40 {
-            let u = 20.05 + k as f32 * 0.25;
-            let lit = maps.lit([u, 5.5, 1.0], light, 0.01, &mut reads);
-            if (u - end).abs() > 0.6 {
-                assert_eq!(lit, u > end, "u {u}, shadow ends at {end}");
+        for path in [VisibilityPath::MaxMip, VisibilityPath::Seed { steps: 64, binary: 6 }] {
+            maps.visibility = path;
+            let mut reads = Reads::default();
+            for k in 0..40 {
+                let u = 20.05 + k as f32 * 0.25;
+                let lit = maps.lit([u, 5.5, 1.0], light, 0.01, &mut reads);
+                if (u - end).abs() > 0.6 {
+                    assert_eq!(lit, u > end, "{path:?}: u {u}, shadow ends at {end}");
+                    assert_eq!(maps.lit_exact([u, 5.5, 1.0], light, 0.01), u > end, "exact: u {u}");
+                }
             }
+            // West of the wall, facing the light, everything is lit; the wall top too.
+            assert!(maps.lit([10.5, 5.5, 1.0], light, 0.01, &mut reads), "{path:?}");
+            assert!(maps.lit([17.5, 5.5, 0.0], light, 0.01, &mut reads), "{path:?}");
         }
-        // West of the wall, facing the light, everything is lit; the wall top too.
-        assert!(maps.lit([10.5, 5.5, 1.0], light, 0.01, &mut reads));
-        assert!(maps.lit([17.5, 5.5, 0.0], light, 0.01, &mut reads));
     }
 
     #[test]
     fn occlusion_is_lower_beside_the_wall_than_on_open_floor() {
-        let maps = wall();
-        let mut reads = Reads::default();
-        let open_floor = maps.ambient_occlusion([4.5, 5.5, 1.0], 1, 0.01, &mut reads);
-        let beside = maps.ambient_occlusion([20.5, 5.5, 1.0], 1, 0.01, &mut reads);
-        let top = maps.ambient_occlusion([17.5, 5.5, 0.0], 1, 0.01, &mut reads);
-        assert_eq!(top, 1.0);
-        assert!(beside < open_floor && open_floor < 1.0, "beside {beside} open {open_floor}");
-        // Beside the wall one azimuth of four looks into it at every zenith row (and rows
-        // that wrap around the 32-texel tile may meet it again): a little under ¾ open.
-        assert!((0.65..=0.75).contains(&beside), "{beside}");
-        assert_eq!(reads.depth, 3 * maps.dirs.layers());
+        let mut maps = wall();
+        for path in [VisibilityPath::MaxMip, VisibilityPath::Seed { steps: 64, binary: 6 }] {
+            maps.visibility = path;
+            let mut reads = Reads::default();
+            let open_floor = maps.ambient_occlusion([4.5, 5.5, 1.0], 1, 0.01, &mut reads);
+            let beside = maps.ambient_occlusion([20.5, 5.5, 1.0], 1, 0.01, &mut reads);
+            let top = maps.ambient_occlusion([17.5, 5.5, 0.0], 1, 0.01, &mut reads);
+            assert_eq!(top, 1.0, "{path:?}");
+            assert!(beside < open_floor && open_floor < 1.0, "{path:?}: beside {beside} open {open_floor}");
+            // Beside the wall one azimuth of four looks into it at every zenith row (and rows
+            // that wrap around the 32-texel tile may meet it again): a little under ¾ open.
+            assert!((0.65..=0.75).contains(&beside), "{path:?}: {beside}");
+            assert_eq!(beside, maps.ambient_occlusion_exact([20.5, 5.5, 1.0], 1, 0.01), "{path:?}");
+            assert_eq!(reads.depth, 3 * maps.dirs.layers());
+            assert!(reads.height > 0, "{path:?}: closed-looking directions are traced");
+        }
     }
 
     /// Every tracer on the wall map against the fine march, at a generous setting: any ray for

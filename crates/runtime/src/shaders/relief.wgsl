@@ -17,6 +17,10 @@ struct ReliefUniform {
     start_level: u32,       // max-mip start level
     stop_level: u32,        // max-mip stop level
     margin: f32,            // share of the depth-map estimate stepped back (tracer 3)
+    direction_rule: u32,    // 0 nearest row, 1 nearest row at or above the ray (toward the zenith)
+    visibility: u32,        // shadows and AO: 0 stored depth then max-mip, 1 the seed's search
+    visibility_steps: u32,  // seed visibility: search steps over the full depth
+    visibility_binary: u32, // seed visibility: binary-search halvings
     _pad: vec2<u32>,
 }
 
@@ -68,16 +72,22 @@ fn relief_direction(layer: u32) -> vec3<f32> {
     return vec3<f32>(sin(theta) * cos(phi), sin(theta) * sin(phi), cos(theta));
 }
 
-fn relief_nearest(d: vec3<f32>) -> u32 {
+// The layer a ray's estimate is read from (hikage_bundle::relief::ReliefDirections::pick).
+fn relief_pick(d: vec3<f32>) -> u32 {
     let horizontal = sqrt(d.x * d.x + d.y * d.y);
     let theta = atan2(horizontal, max(d.z, 0.0));
-    let row = u32(clamp(i32(ceil(theta / RELIEF_HALF_PI * f32(relief.theta_rows))) - 1, 0, i32(relief.theta_rows) - 1));
+    let rows = theta / RELIEF_HALF_PI * f32(relief.theta_rows);
+    var row = i32(ceil(rows)) - 1;
+    if relief.direction_rule == 1u {
+        row = i32(floor(rows - 0.5));
+    }
+    row = clamp(row, 0, i32(relief.theta_rows) - 1);
     var phi = atan2(d.y, d.x);
     if phi < 0.0 {
         phi = phi + RELIEF_TAU;
     }
     let col = u32(floor(phi / RELIEF_TAU * f32(relief.phi_cols) + 0.5)) % relief.phi_cols;
-    return row * relief.phi_cols + col;
+    return u32(row) * relief.phi_cols + col;
 }
 
 fn relief_depth_at(layer: u32, u: f32, v: f32) -> f32 {
@@ -91,9 +101,9 @@ fn relief_depth_at(layer: u32, u: f32, v: f32) -> f32 {
     return textureLoad(relief_depths, vec2<i32>(ii, jj), i32(layer), 0).r;
 }
 
-// Seed's estimate: nearest direction's stored hit, projected onto the view ray.
+// Seed's estimate: the picked direction's stored hit, projected onto the view ray.
 fn relief_estimate(r: ReliefRay) -> f32 {
-    let layer = relief_nearest(r.dir);
+    let layer = relief_pick(r.dir);
     let k = relief_direction(layer);
     let d = relief_depth_at(layer, r.origin.x, r.origin.y);
     let along_sample = d * relief.thickness / k.z;
@@ -176,6 +186,45 @@ fn relief_maxmip(r: ReliefRay, s_start: f32, s_stop: f32, start_level: u32, stop
     return min(s, s_end);
 }
 
+// The seed's search from an estimate: backward while inside, forward while outside, in steps of
+// 1/steps of the depth, then binary halvings.
+fn relief_search(r: ReliefRay, s0: f32, steps: u32, binary: u32) -> f32 {
+    let bottom = relief_bottom(r);
+    let ds = bottom / f32(max(steps, 1u));
+    var lo = 0.0;
+    var hi = bottom;
+    if relief_inside(r, s0) {
+        hi = s0;
+        lo = 0.0;
+        loop {
+            if hi <= 0.0 {
+                break;
+            }
+            let s = max(hi - ds, 0.0);
+            if s <= 0.0 || !relief_inside(r, s) {
+                lo = s;
+                break;
+            }
+            hi = s;
+        }
+    } else {
+        lo = s0;
+        hi = bottom;
+        loop {
+            let s = lo + ds;
+            if s >= bottom {
+                break;
+            }
+            if relief_inside(r, s) {
+                hi = s;
+                break;
+            }
+            lo = s;
+        }
+    }
+    return relief_bisect(r, lo, hi, binary);
+}
+
 // The hit length the tracer chosen in `relief` finds.
 fn relief_trace(r: ReliefRay) -> f32 {
     let bottom = relief_bottom(r);
@@ -195,39 +244,7 @@ fn relief_trace(r: ReliefRay) -> f32 {
             return relief_bisect(r, lo, hi, relief.binary);
         }
         case 1u: {
-            let s0 = relief_estimate(r);
-            var lo = 0.0;
-            var hi = bottom;
-            if relief_inside(r, s0) {
-                hi = s0;
-                lo = 0.0;
-                loop {
-                    if hi <= 0.0 {
-                        break;
-                    }
-                    let s = max(hi - ds, 0.0);
-                    if s <= 0.0 || !relief_inside(r, s) {
-                        lo = s;
-                        break;
-                    }
-                    hi = s;
-                }
-            } else {
-                lo = s0;
-                hi = bottom;
-                loop {
-                    let s = lo + ds;
-                    if s >= bottom {
-                        break;
-                    }
-                    if relief_inside(r, s) {
-                        hi = s;
-                        break;
-                    }
-                    lo = s;
-                }
-            }
-            return relief_bisect(r, lo, hi, relief.binary);
+            return relief_search(r, relief_estimate(r), relief.steps, relief.binary);
         }
         case 2u: {
             return relief_maxmip(r, 0.0, 3.0e38, relief.start_level, relief.stop_level);
@@ -258,28 +275,41 @@ fn relief_entry(uvz: vec3<f32>, toward: vec3<f32>) -> vec2<f32> {
     return vec2<f32>(uvz.x + back * toward.x, uvz.y + back * toward.y);
 }
 
-// Is the point lit from `light` (unit, z up)? One depth-map read when the stored hit above it
-// is not shallower; otherwise a max-mip traversal from the stored depth to the point.
+// The max-mip path's decision for a ray whose stored hit is `stored`: open when the stored hit is
+// not above `depth`; otherwise when a max-mip traversal from the stored depth (pulled back 10%)
+// down to `depth` meets nothing.
+fn relief_open_after(r: ReliefRay, stored: f32, depth: f32) -> bool {
+    if stored >= depth {
+        return true;
+    }
+    let dz = relief_dz(r);
+    let s_point = max(depth, 0.0) / dz;
+    let s_start = stored / dz * 0.9;
+    return relief_maxmip(r, s_start, s_point, 2u, 0u) >= s_point;
+}
+
+// Is the point lit from `light` (unit, z up)? By the visibility path chosen in `relief`: the
+// stored depth, then a max-mip traversal from it to the point; or the seed's search from the
+// estimate. A hit within `bias` (depth) above the point counts as the point.
 fn relief_lit(uvz: vec3<f32>, light: vec3<f32>, bias: f32) -> bool {
     if light.z <= 0.0 {
         return false;
     }
     let entry = relief_entry(uvz, light);
     let dir = vec3<f32>(-light.x, -light.y, light.z);
-    let layer = relief_nearest(dir);
-    let stored = relief_depth_at(layer, entry.x, entry.y);
-    if stored >= uvz.z - bias {
-        return true;
-    }
     let r = ReliefRay(entry, dir);
-    let dz = relief_dz(r);
-    let s_point = max(uvz.z - bias, 0.0) / dz;
-    let s_start = stored / dz * 0.9;
-    let s = relief_maxmip(r, s_start, s_point, 2u, 0u);
-    return s >= s_point;
+    if relief.visibility == 1u {
+        let s0 = relief_estimate(r);
+        return relief_search(r, s0, relief.visibility_steps, relief.visibility_binary) * relief_dz(r) >= uvz.z - bias;
+    }
+    let layer = relief_pick(dir);
+    let stored = relief_depth_at(layer, entry.x, entry.y);
+    return relief_open_after(r, stored, uvz.z - bias);
 }
 
-// Cosine-weighted open share of the hemisphere over every `stride`-th direction.
+// Cosine-weighted open share of the hemisphere over every `stride`-th direction, each decided
+// by the visibility path as relief_lit does (the layer's own direction: its stored hit is the
+// estimate).
 fn relief_ambient_occlusion(uvz: vec3<f32>, stride: u32, bias: f32) -> f32 {
     var open = 0.0;
     var total = 0.0;
@@ -289,7 +319,16 @@ fn relief_ambient_occlusion(uvz: vec3<f32>, stride: u32, bias: f32) -> f32 {
         let up = vec3<f32>(-k.x, -k.y, k.z);
         let w = k.z * sqrt(k.x * k.x + k.y * k.y);
         let entry = relief_entry(uvz, up);
-        if relief_depth_at(layer, entry.x, entry.y) >= uvz.z - bias {
+        let stored = relief_depth_at(layer, entry.x, entry.y);
+        let r = ReliefRay(entry, k);
+        var seen = false;
+        if relief.visibility == 1u {
+            let dz = relief_dz(r);
+            seen = relief_search(r, stored / dz, relief.visibility_steps, relief.visibility_binary) * dz >= uvz.z - bias;
+        } else {
+            seen = relief_open_after(r, stored, uvz.z - bias);
+        }
+        if seen {
             open = open + w;
         }
         total = total + w;
