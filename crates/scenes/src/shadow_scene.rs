@@ -8,7 +8,7 @@
 use glam::{Mat4, Vec3, Vec4};
 
 use crate::headless::{Headless, clear_attachment, depth_attachment, depth_test, plain_target, render_pipeline};
-use hikage_runtime::shadow_fit::{MeshRef, Sphere};
+use hikage_runtime::shadow_fit::{self, Camera, Fit, FitOptions, Light, MeshRef, Scratch, Sphere};
 
 /// WGSL of the two passes.
 pub const SCENE_WGSL: &str = include_str!("shaders/shadow_scene.wgsl");
@@ -25,6 +25,8 @@ pub struct Scene {
     pub faces: Vec<u32>,
     /// Triangle list.
     pub indices: Vec<u32>,
+    /// Each box's lower and upper corner.
+    pub boxes: Vec<[Vec3; 2]>,
     /// Bounds of everything.
     pub bounds: Sphere,
 }
@@ -42,6 +44,7 @@ impl Scene {
             positions: Vec::new(),
             faces: Vec::new(),
             indices: Vec::new(),
+            boxes: Vec::new(),
             bounds: Sphere { centre: Vec3::ZERO, radius: 0.0 },
         };
         s.add_quad(Vec3::new(-half, 0.0, -half), Vec3::new(0.0, 0.0, 2.0 * half), Vec3::new(2.0 * half, 0.0, 0.0), 2);
@@ -69,6 +72,7 @@ impl Scene {
     }
 
     fn add_box(&mut self, lo: Vec3, size: Vec3) {
+        self.boxes.push([lo, lo + size]);
         let (x, y, z) = (Vec3::X * size.x, Vec3::Y * size.y, Vec3::Z * size.z);
         self.add_quad(lo + x, y, z, 0);
         self.add_quad(lo, z, y, 1);
@@ -78,10 +82,139 @@ impl Scene {
         self.add_quad(lo, y, x, 5);
     }
 
+    /// Whether `p` sees `light`, by casting the ray to it against every box (the ground casts
+    /// no shadow on what stands on it): the exact answer shadow maps approximate.
+    pub fn lit_exact(&self, light: Light, p: Vec3) -> bool {
+        let (dir, reach) = match light {
+            Light::Point(l) => ((l - p).normalize_or_zero(), (l - p).length()),
+            Light::Directional(d) => (-d.normalize_or_zero(), f32::INFINITY),
+        };
+        !self.boxes.iter().any(|&[lo, hi]| {
+            let (mut t0, mut t1) = (1e-3f32, reach);
+            for axis in 0..3 {
+                if dir[axis].abs() < 1e-12 {
+                    if p[axis] <= lo[axis] || p[axis] >= hi[axis] {
+                        return false;
+                    }
+                    continue;
+                }
+                let (a, b) = ((lo[axis] - p[axis]) / dir[axis], (hi[axis] - p[axis]) / dir[axis]);
+                t0 = t0.max(a.min(b));
+                t1 = t1.min(a.max(b));
+            }
+            t0 < t1
+        })
+    }
+
     /// The scene as one mesh for the fit.
     pub fn mesh(&self) -> MeshRef<'_> {
         MeshRef { world: Mat4::IDENTITY, positions: &self.positions, indices: &self.indices }
     }
+}
+
+/// The light projections compared: seed 001's Table 1 (SM, PSM, SM + fit, PSM + fit) and the
+/// snapped fit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Projection {
+    /// A fixed frustum around the whole scene.
+    Sm,
+    /// Perspective shadow maps over the whole view frustum (Stamminger & Drettakis).
+    Psm,
+    /// The seed's fit to the visible geometry.
+    SmFit,
+    /// The fit snapped to the texel grid.
+    SmFitSnapped,
+    /// The fit in post-perspective space, the virtual camera pulled back only for casters
+    /// (Stamminger & Drettakis).
+    PsmFitCasters,
+    /// The fit in post-perspective space, the virtual camera pulled back at least
+    /// `√(z_near · z_far)` (the default).
+    PsmFit,
+}
+
+impl Projection {
+    /// Every projection, in table order.
+    pub const ALL: [Projection; 6] = [
+        Projection::Sm,
+        Projection::Psm,
+        Projection::SmFit,
+        Projection::SmFitSnapped,
+        Projection::PsmFitCasters,
+        Projection::PsmFit,
+    ];
+
+    /// Name for tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Projection::Sm => "SM: fixed frustum (whole scene)",
+            Projection::Psm => "PSM (whole view frustum)",
+            Projection::SmFit => "SM + fit (the seed)",
+            Projection::SmFitSnapped => "SM + fit + snapping",
+            Projection::PsmFitCasters => "PSM + fit, pulled back for casters only",
+            Projection::PsmFit => "PSM + fit, balanced (default)",
+        }
+    }
+
+    /// The light matrix for `camera`, with the fit it came from (none for the fixed frustum).
+    pub fn light_matrix(
+        self,
+        light: Light,
+        camera: &Camera,
+        meshes: &[MeshRef],
+        base: &FitOptions,
+        scratch: &mut Scratch,
+    ) -> (Mat4, Option<Fit>) {
+        let options = match self {
+            Projection::Sm => return (shadow_fit::fixed(light, base), None),
+            Projection::Psm => FitOptions { psm: true, to_visible: false, ..*base },
+            Projection::SmFit => *base,
+            Projection::SmFitSnapped => FitOptions { snap: true, ..*base },
+            Projection::PsmFitCasters => FitOptions { psm: true, psm_balance: false, ..*base },
+            Projection::PsmFit => FitOptions { psm: true, ..*base },
+        };
+        let f = shadow_fit::fit(light, camera, meshes, &options, scratch);
+        (f.view_proj, Some(f))
+    }
+}
+
+/// The light of the timing scene, and fit options for it: the spot light of the `shadow_fit`
+/// example, its near plane just before the scene.
+pub fn spot_light(scene: &Scene, resolution: u32) -> (Light, FitOptions) {
+    let position = Vec3::new(-260.0, 380.0, 160.0);
+    let options = FitOptions {
+        // Every caster lies in the scene sphere: a near plane just before it keeps them all and
+        // spends the depth range on the scene.
+        near: ((position - scene.bounds.centre).length() - scene.bounds.radius).max(1.0) * 0.95,
+        resolution,
+        ..FitOptions::new(scene.bounds)
+    };
+    (Light::Point(position), options)
+}
+
+/// Seed 001's Table 1 on the CPU side: the per-frame time of each projection's light matrix
+/// (visibility test, fit, PSM's casters and pull-back) for boxes over a 400 × 400 ground with
+/// about `polygons` triangles, seen from inside the field of boxes; best of `runs`, seconds.
+pub fn cpu_times(polygons: u32, runs: usize) -> Vec<(Projection, f64)> {
+    let scene = Scene::boxes(polygons.saturating_sub(2) / 12, 200.0, 1);
+    let (light, options) = spot_light(&scene, 1024);
+    let camera = Camera {
+        view: glam::camera::rh::view::look_at_mat4(Vec3::new(90.0, 4.0, 0.0), Vec3::new(86.0, 1.0, 20.0), Vec3::Y),
+        projection: glam::camera::rh::proj::directx::perspective(60f32.to_radians(), 4.0 / 3.0, 0.5, 150.0),
+    };
+    let mesh = [scene.mesh()];
+    let mut scratch = Scratch::default();
+    Projection::ALL
+        .iter()
+        .map(|&p| {
+            let mut best = f64::INFINITY;
+            for _ in 0..runs {
+                let t = std::time::Instant::now();
+                std::hint::black_box(p.light_matrix(light, &camera, &mesh, &options, &mut scratch));
+                best = best.min(t.elapsed().as_secs_f64());
+            }
+            (p, best)
+        })
+        .collect()
 }
 
 /// Per-frame readback.
@@ -96,9 +229,13 @@ pub struct FrameData {
     pub shadow: Vec<[f32; 4]>,
     /// Per pixel: world position and face index (−1: background).
     pub world: Vec<[f32; 4]>,
-    /// The shadow map (light NDC depth), `R × R`.
+    /// The shadow map: per texel the nearest surface's distance to the light (world units;
+    /// [`EMPTY`] where nothing was drawn), `R × R`.
     pub map: Vec<f32>,
 }
+
+/// The shadow map's value where nothing was drawn.
+pub const EMPTY: f32 = 1e30;
 
 /// The matrices and sizes of one frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -107,19 +244,26 @@ pub struct FrameSetup {
     pub camera: Mat4,
     /// World → light clip.
     pub light: Mat4,
+    /// The light itself: the shadow map stores, and the test compares, distances to it.
+    pub source: Light,
     /// Shadow-map texels per side.
     pub resolution: u32,
     /// Image width and height.
     pub size: (u32, u32),
 }
 
-/// Constant depth bias of the shadow test, in light NDC depth; the shader adds 1.5× the
-/// receiver plane's depth change per shadow-map texel.
-pub const DEPTH_BIAS: f32 = 1e-5;
+/// Constant bias of the shadow test, world units; the shader adds 1.5× the receiver plane's
+/// change of light distance per shadow-map texel.
+///
+/// The test compares world distances to the light rather than the map's clip depth: a
+/// perspective shadow map's depth is so uneven across the scene that no one depth bias suits
+/// both the near and the far receivers, while a distance is the same quantity for every
+/// projection, so all of them are compared on equal terms.
+pub const DEPTH_BIAS: f32 = 0.02;
 
 /// Draws one frame: the shadow map from `light`, then the scene from `camera`.
 pub fn render_frame(gpu: &Headless, scene: &Scene, setup: &FrameSetup) -> FrameData {
-    let FrameSetup { camera, light, resolution, size: (width, height) } = *setup;
+    let FrameSetup { camera, light, source, resolution, size: (width, height) } = *setup;
     let device = &gpu.device;
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("shadow scene"),
@@ -139,6 +283,13 @@ pub fn render_frame(gpu: &Headless, scene: &Scene, setup: &FrameSetup) -> FrameD
     uniform.extend(camera.to_cols_array());
     uniform.extend(light.to_cols_array());
     uniform.extend([resolution as f32, DEPTH_BIAS, 0.0, 0.0]);
+    uniform.extend(
+        match source {
+            Light::Point(p) => p.extend(1.0),
+            Light::Directional(d) => d.normalize_or(Vec3::NEG_Y).extend(0.0),
+        }
+        .to_array(),
+    );
     let ubytes: Vec<u8> = uniform.iter().flat_map(|v| v.to_le_bytes()).collect();
     let ubuf = gpu.buffer(ubytes.len() as u64, wgpu::BufferUsages::UNIFORM, Some(&ubytes));
     let layout = wgpu::VertexBufferLayout {
@@ -189,7 +340,7 @@ pub fn render_frame(gpu: &Headless, scene: &Scene, setup: &FrameSetup) -> FrameD
     {
         let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("light"),
-            color_attachments: &[color(&map_view, 1.0)],
+            color_attachments: &[color(&map_view, EMPTY as f64)],
             depth_stencil_attachment: depth(&md),
             ..Default::default()
         });
@@ -233,7 +384,7 @@ pub fn render_frame(gpu: &Headless, scene: &Scene, setup: &FrameSetup) -> FrameD
 /// right and lower neighbours' meet the plane of the surface there (point `world`, normal of
 /// `face`); their shadow-map texel coordinates give the Jacobian.
 pub fn sigma_cpu(setup: &FrameSetup, (x, y): (u32, u32), world: Vec3, face: u32) -> f32 {
-    let FrameSetup { camera, light, resolution, size: (width, height) } = *setup;
+    let FrameSetup { camera, light, resolution, size: (width, height), .. } = *setup;
     let inv = camera.inverse();
     let normal = FACE_NORMALS[face as usize % 6];
     let texel = |px: f32, py: f32| {
@@ -324,12 +475,44 @@ pub fn frame_stats(data: &FrameData, resolution: u32) -> FrameStats {
     }
 }
 
+/// Share of the pixels of `data` on surfaces facing `light` and inside its shadow map whose
+/// lit state differs from the exact one ([`Scene::lit_exact`]).
+pub fn errors_exact(scene: &Scene, data: &FrameData, light: Light) -> f64 {
+    let (mut counted, mut wrong) = (0usize, 0usize);
+    for (s, w) in data.shadow.iter().zip(&data.world) {
+        if s[3] < 0.0 || w[3] < 0.0 {
+            continue;
+        }
+        let p = Vec3::new(w[0], w[1], w[2]);
+        if !faces(light, p, w[3]) {
+            continue;
+        }
+        counted += 1;
+        wrong += ((s[3] > 0.5) != scene.lit_exact(light, p)) as usize;
+    }
+    wrong as f64 / counted.max(1) as f64
+}
+
+/// Whether the face of index `face` at `p` is turned toward `light`.
+fn faces(light: Light, p: Vec3, face: f32) -> bool {
+    let toward = match light {
+        Light::Point(l) => l - p,
+        Light::Directional(d) => -d,
+    };
+    FACE_NORMALS[face as usize % 6].dot(toward) > 0.0
+}
+
 /// Share of pixels inside both shadow maps whose lit/shadowed state differs (between frames:
-/// shimmer; against a reference render of the same frame: error).
-pub fn flips(a: &FrameData, b: &FrameData) -> f64 {
+/// shimmer; against a reference render of the same frame: error), over the surfaces facing
+/// `light` (a face turned away from the light is dark whatever its shadow test says, and its
+/// test is the bias's choice).
+pub fn flips(a: &FrameData, b: &FrameData, light: Light) -> f64 {
     let (mut both, mut flipped) = (0usize, 0usize);
-    for (sa, sb) in a.shadow.iter().zip(&b.shadow) {
-        if sa[3] < 0.0 || sb[3] < 0.0 {
+    for ((sa, sb), w) in a.shadow.iter().zip(&b.shadow).zip(&a.world) {
+        if sa[3] < 0.0 || sb[3] < 0.0 || w[3] < 0.0 {
+            continue;
+        }
+        if !faces(light, Vec3::new(w[0], w[1], w[2]), w[3]) {
             continue;
         }
         both += 1;
