@@ -1,33 +1,40 @@
 //! Strips and the automatic opacity set on generated hair (the generators live in the devkit,
 //! so these are integration tests).
 
-use hikage_bake::strands::auto::{LightView, choose, directions, optical_depth};
+use hikage_bake::strands::auto::{LightView, choose, directions};
 use hikage_bake::strands::strips::{StripSets, build};
 use hikage_devkit::synth;
 
-/// The criterion as a test: the automatic opacity set leaves no hole in the silhouette along
-/// the axes it was chosen for nor along the eight diagonals it never saw (at most 0.5% there),
-/// keeps the shading set's optical depth within 10%, while the shading set itself used as the
-/// opacity set (plain deep opacity maps) leaves holes.
+/// The criterion as a test, on views it never saw: along the eight diagonals (the choice looks
+/// along the six axes only), the automatic opacity set's shadow is nearer the reference than
+/// the seed's fixed-ratio set's and than the shading set's own (plain deep opacity maps), and
+/// it is wider and fainter than the shading set with the same width × opacity.
 #[test]
-fn auto_opacity_set_has_no_holes_and_the_same_optical_depth() {
-    let s = synth::hair(1500, 12, 11);
-    let base = StripSets::from_source(&s);
-    let resolution = 128;
-    let (sets, left) = choose(&s, &base, resolution);
-    assert_eq!(left, 0.0);
-    let ratio = optical_depth(sets.opacity.0, sets.opacity.1) / optical_depth(sets.shading.0, sets.shading.1);
-    assert!((ratio - 1.0).abs() <= 0.1, "optical depth ratio {ratio}");
-    let plain = StripSets { opacity: base.shading, ..base };
-    let mut plain_holes = 0.0f64;
-    for (k, d) in directions().into_iter().enumerate() {
-        let view = LightView::new(&s, d, resolution);
-        let holes = view.hole_share(&s, &sets);
-        assert!(holes <= if k < 6 { 0.0 } else { 0.005 }, "direction {d:?}: {holes}");
-        plain_holes = plain_holes.max(view.hole_share(&s, &plain));
+fn auto_opacity_set_is_nearest_the_reference_shadow() {
+    for (name, s) in [("head", synth::hair(1500, 12, 11)), ("combed", synth::combed(1500, 12, 5))] {
+        let base = StripSets::from_source(&s);
+        let resolution = 96;
+        let (sets, rms) = choose(&s, &base, resolution);
+        let plain = StripSets { opacity: base.shading, ..base };
+        let (mut auto_err, mut seed_err, mut plain_err) = (0.0, 0.0, 0.0);
+        for d in &directions()[6..] {
+            let view = LightView::new(&s, *d, resolution, &base);
+            auto_err += view.squared_error(&s, &sets).0;
+            seed_err += view.squared_error(&s, &base).0;
+            plain_err += view.squared_error(&s, &plain).0;
+        }
+        eprintln!(
+            "{name}: auto {:?} (rms {rms:.4} on the axes); diagonals: auto {auto_err:.4}, seed {seed_err:.4}, plain {plain_err:.4}",
+            sets.opacity
+        );
+        assert!(
+            auto_err < seed_err && auto_err < plain_err,
+            "{name}: auto {auto_err} seed {seed_err} plain {plain_err}"
+        );
+        assert!(sets.opacity.0 > base.shading.0 && sets.opacity.1 < base.shading.1, "{name}: {sets:?}");
+        let (a, b) = (sets.opacity.0 * sets.opacity.1, base.shading.0 * base.shading.1);
+        assert!((a / b - 1.0).abs() < 1e-4, "{name}: width × opacity {a} vs {b}");
     }
-    assert!(plain_holes > 0.05, "the shading set alone should leave holes: {plain_holes}");
-    assert!(sets.opacity.0 > base.shading.0 && sets.opacity.1 < base.shading.1);
 }
 
 #[test]

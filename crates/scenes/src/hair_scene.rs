@@ -206,6 +206,103 @@ pub fn read_opacity_maps(g: &Headless, renderer: &HairRenderer) -> (Vec<f32>, Ve
     (depth, layers)
 }
 
+/// Box-filters a `(w·factor) × (h·factor)` image down to `w × h`: the mean of each block.
+pub fn box_filter(v: &[f32], (w, h): (u32, u32), factor: u32) -> Vec<f32> {
+    let (w, h, f) = (w as usize, h as usize, factor as usize);
+    let mut out = vec![0.0f32; w * h];
+    for (y, row) in v.chunks_exact(w * f).enumerate() {
+        for (x, &value) in row.iter().enumerate() {
+            out[(y / f) * w + x / f] += value;
+        }
+    }
+    out.iter_mut().for_each(|o| *o /= (f * f) as f32);
+    out
+}
+
+/// The reference ground shadow seen by `view_proj` in a `size` image: the shading set's
+/// opacity maps at `factor` × `resolution` texels a side, the ground's visibility rendered at
+/// `factor` × `size` and box-filtered down to `size` — what anti-aliased opacity maps of
+/// `resolution`² should converge to.
+#[allow(clippy::too_many_arguments)]
+pub fn reference_shadow(
+    g: &Headless,
+    gpu: &hikage_runtime::GpuBundle,
+    strips: &str,
+    to_light: Vec3,
+    corners: [Vec3; 4],
+    view_proj: Mat4,
+    (resolution, size): (u32, (u32, u32)),
+    factor: u32,
+) -> Result<Vec<f32>, hikage_runtime::RuntimeError> {
+    use hikage_runtime::hair::{HairFrame, HairOptions, HairSet};
+    let options = HairOptions { resolution: resolution * factor, ..HairOptions::new(COLOR_FORMAT, (8, 8)) };
+    let renderer = HairRenderer::new(&g.device, &g.queue, gpu, strips, &options)?;
+    let frame =
+        HairFrame { set: HairSet::Shading, ..HairFrame::new(Mat4::IDENTITY, Vec3::ZERO, renderer.light(to_light)) };
+    renderer.update(&g.queue, &frame);
+    let mut encoder = g.device.create_command_encoder(&Default::default());
+    renderer.render_opacity_maps(&mut encoder);
+    g.queue.submit([encoder.finish()]);
+    let ground = Ground::new(g, &renderer, corners);
+    let fine = ground.visibility(g, &renderer, view_proj, (size.0 * factor, size.1 * factor));
+    Ok(box_filter(&fine, size, factor))
+}
+
+/// A shadow image against its reference, over the pixels in or beside shadow in either (below
+/// 0.98): RMS and largest difference of visibility, and the difference of mean darkness
+/// (1 − visibility; positive: darker than the reference).
+pub fn shadow_errors(v: &[f32], reference: &[f32]) -> (f64, f64, f64) {
+    let (mut sq, mut max, mut dark, mut n) = (0.0f64, 0.0f64, 0.0f64, 0usize);
+    for (&a, &b) in v.iter().zip(reference) {
+        if a >= 0.98 && b >= 0.98 {
+            continue;
+        }
+        let d = (a - b) as f64;
+        sq += d * d;
+        max = max.max(d.abs());
+        dark += -d;
+        n += 1;
+    }
+    if n == 0 {
+        return (0.0, 0.0, 0.0);
+    }
+    ((sq / n as f64).sqrt(), max, dark / n as f64)
+}
+
+/// The error the layers put into the hair's own shadow: at every strand point, the visibility
+/// through the layered maps of `set` against the exact cumulative opacity of every fragment in
+/// front of it in the same texel (the maps without layering), on the CPU. RMS and largest.
+pub fn layer_errors(
+    strips: &hikage_runtime::hair::reference::StripArrays,
+    light: &hikage_runtime::hair::HairLight,
+    set: hikage_runtime::hair::HairSet,
+    resolution: u32,
+) -> (f64, f64) {
+    use hikage_runtime::hair::reference::{accumulate_cpu, for_each_light_fragment, texel_visibility};
+    let r = resolution as usize;
+    let mut fragments: Vec<Vec<(f32, f32)>> = vec![Vec::new(); r * r];
+    for_each_light_fragment(strips, light, set, resolution, |i, z, a| fragments[i].push((z, a)));
+    let (z0, layers) = accumulate_cpu(strips, light, set, resolution);
+    let (mut sq, mut max, mut n) = (0.0f64, 0.0f64, 0usize);
+    for &p in &strips.position {
+        let c = light.view_proj * p.extend(1.0);
+        let ndc = c.truncate() / c.w;
+        let (x, y) = (((ndc.x * 0.5 + 0.5) * r as f32).floor(), ((0.5 - ndc.y * 0.5) * r as f32).floor());
+        if x < 0.0 || y < 0.0 || x >= r as f32 || y >= r as f32 {
+            continue;
+        }
+        let i = y as usize * r + x as usize;
+        let in_front: f32 = fragments[i].iter().filter(|(z, _)| *z < ndc.z).map(|(_, a)| a).sum();
+        let exact = 1.0 - in_front.min(1.0);
+        let layered = texel_visibility(light, &z0, &layers, resolution, (x as i64, y as i64), ndc.z);
+        let d = (layered - exact) as f64;
+        sq += d * d;
+        max = max.max(d.abs());
+        n += 1;
+    }
+    ((sq / n.max(1) as f64).sqrt(), max)
+}
+
 /// Aliasing of a shadow image: the mean squared difference between each pixel and the mean of
 /// its 3×3 neighbourhood (high-frequency energy), over pixels in shadow (visibility < 0.98) or
 /// next to one, relative to the squared mean darkness there. Holes and stripes in a shadow raise
@@ -265,7 +362,9 @@ pub fn camera_reference(
     size: (u32, u32),
     how: Composite,
 ) -> Vec<[f32; 4]> {
+    use hikage_runtime::hair::Lookup;
     use hikage_runtime::hair::reference::{expand, hair_kajiya_kay, hair_oit_weight, hair_visibility};
+    let lookup = if uniform.lookup == Lookup::Bilinear.code() { Lookup::Bilinear } else { Lookup::Nearest };
     let world: Vec<Vec3> = (0..strips.position.len())
         .map(|v| {
             let p = strips.position[v];
@@ -284,7 +383,7 @@ pub fn camera_reference(
         let base = mix3(&|k| strips.color[k]);
         let alpha = (0..3).map(|k| strips.opacity[v(k)][0] * q[k]).sum::<f32>();
         let view_depth = (0..3).map(|k| clip[v(k)].w * q[k]).sum::<f32>();
-        let vis = hair_visibility(light, &maps.0, &maps.1, uniform.resolution, p);
+        let vis = hair_visibility(light, (&maps.0, &maps.1), uniform.resolution, lookup, p);
         let c = hair_kajiya_kay(uniform, tangent, to_light, (eye - p).normalize(), base, vis);
         pixels[i].push((z, c, alpha, hair_oit_weight(view_depth, alpha)));
     });

@@ -11,7 +11,7 @@ use crate::strands::strips::{self, StripSets};
 use crate::strands::{self, Strands, auto, ribbons};
 
 /// Version of the strands job; part of the input hash.
-pub const ALGORITHM_VERSION: u32 = 1;
+pub const ALGORITHM_VERSION: u32 = 2;
 
 /// Settings of a strands bake. Asset ids: `<id>.strips`, and `<id>.ribbons` with `ribbons`.
 ///
@@ -47,8 +47,8 @@ pub struct StrandsJob {
     #[serde(default)]
     #[cfg_attr(feature = "clap", arg(long))]
     pub opacity_alpha: Option<f32>,
-    /// Choose the opacity set for an opacity map of N² texels: no holes in the hair's
-    /// light-space silhouette, the shading set's optical depth.
+    /// Choose the opacity set for an opacity map of N² texels: the width (with width × opacity
+    /// kept) whose light-space shadow is nearest the shading set's at 8× the resolution.
     #[serde(default)]
     #[cfg_attr(feature = "clap", arg(long, value_name = "N", num_args = 0..=1, default_missing_value = "256"))]
     pub auto: Option<u32>,

@@ -1,13 +1,14 @@
-//! Choosing the opacity set from the strands themselves (the paper's stated future work): the
-//! narrowest width at which the opacity set, rasterised in light space at the opacity map's
-//! resolution, leaves no hole inside the hair's silhouette, with the opacity that keeps its total
-//! optical depth equal to the shading set's.
+//! Choosing the opacity set from the strands themselves (the paper's stated future work).
 //!
-//! Light space here is an orthographic view along a light direction, the hair's bounding box
-//! filling `resolution` pixels. The silhouette is the shading set's centre-line coverage closed
-//! by a disc of [`CLOSING_RADIUS`] pixels (gaps narrower than that are inside the hair). Optical
-//! depth of a strip is `width × length × −ln(1 − α)`; matching it keeps what the opacity maps
-//! accumulate the same whichever set is drawn.
+//! What the opacity set is for is a hair shadow that converges to the right one: the shading
+//! set's own shadow seen at a far higher resolution. So the choice is judged against exactly
+//! that, in light space: an orthographic view along a light direction with the hair's bounding
+//! box filling `resolution` pixels, the shadow (`1 − min(Σ α, 1)` over the strips covering each
+//! pixel centre, as the opacity maps accumulate it) of a candidate set at `resolution` against
+//! the shading set's at [`REFERENCE_FACTOR`]× the resolution box-filtered down, RMS over the
+//! pixels in or beside shadow. Each candidate width keeps `width × α` — what the additive maps
+//! sum per unit length — equal to the shading set's, so a set only trades sharpness for the
+//! holes it fills, never darkness.
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -15,8 +16,8 @@ use rayon::prelude::*;
 use super::Strands;
 use super::strips::StripSets;
 
-/// Gaps in the centre-line coverage narrower than twice this (pixels) count as inside the hair.
-pub const CLOSING_RADIUS: i32 = 2;
+/// The reference shadow's resolution, as a multiple of the opacity map's.
+pub const REFERENCE_FACTOR: u32 = 8;
 
 /// Light directions the choice is made for: the six axes and the eight diagonals.
 pub fn directions() -> Vec<[f32; 3]> {
@@ -65,146 +66,142 @@ impl View {
     }
 }
 
-/// Pixels covered by the strands drawn `width(point)` world units wide (0: the centre line, one
-/// pixel), and the summed optical depth per pixel when `alpha` is given.
-fn rasterise(s: &Strands, view: &View, width: &dyn Fn(usize) -> f32) -> Vec<bool> {
-    let n = view.n as usize;
-    let mut covered = vec![false; n * n];
-    let mut first = 0usize;
-    for &seg in &s.segments {
-        let last = first + seg as usize;
-        for p in first..last {
-            let (a, b) = (view.project(s.points[p]), view.project(s.points[p + 1]));
-            let half = 0.5 * width(p).max(0.0) / view.pixel;
-            let len = ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt();
-            // Stamps overlap by half: contiguous, without redrawing a wide strip per half pixel.
-            let steps = (len / half.max(0.5)).ceil().max(1.0) as usize;
-            for k in 0..=steps {
-                let t = k as f32 / steps as f32;
-                let (x, y) = (a.0 + (b.0 - a.0) * t, a.1 + (b.1 - a.1) * t);
-                let (x0, x1) = ((x - half).floor() as i32, (x + half).floor() as i32);
-                let (y0, y1) = ((y - half).floor() as i32, (y + half).floor() as i32);
-                for yy in y0.max(0)..=y1.min(view.n - 1) {
-                    for xx in x0.max(0)..=x1.min(view.n - 1) {
-                        covered[yy as usize * n + xx as usize] = true;
+impl View {
+    /// The shadow of the strands in this view: per pixel `1 − min(Σ α, 1)` over the strips
+    /// (`width(point)` wide, opacity `alpha(point)`) covering its centre.
+    fn shadow(
+        &self,
+        s: &Strands,
+        width: &(dyn Fn(usize) -> f32 + Sync),
+        alpha: &(dyn Fn(usize) -> f32 + Sync),
+    ) -> Vec<f32> {
+        let n = self.n as usize;
+        let mut sum = vec![0.0f32; n * n];
+        let mut first = 0usize;
+        for &seg in &s.segments {
+            let last = first + seg as usize;
+            for p in first..last {
+                let (a, b) = (self.project(s.points[p]), self.project(s.points[p + 1]));
+                let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+                let len2 = dx * dx + dy * dy;
+                if len2 <= 0.0 {
+                    continue;
+                }
+                let half = 0.5 * width(p).max(0.0) / self.pixel;
+                let opacity = alpha(p);
+                let (x0, x1) = ((a.0.min(b.0) - half).floor() as i32, (a.0.max(b.0) + half).ceil() as i32);
+                let (y0, y1) = ((a.1.min(b.1) - half).floor() as i32, (a.1.max(b.1) + half).ceil() as i32);
+                let inv_len = 1.0 / len2.sqrt();
+                for y in y0.max(0)..y1.min(self.n) {
+                    for x in x0.max(0)..x1.min(self.n) {
+                        let (px, py) = (x as f32 + 0.5 - a.0, y as f32 + 0.5 - a.1);
+                        // Along the segment in [0, 1) (each joint counted once), across within half.
+                        let t = (px * dx + py * dy) / len2;
+                        let across = (px * dy - py * dx).abs() * inv_len;
+                        if (0.0..1.0).contains(&t) && across <= half {
+                            sum[y as usize * n + x as usize] += opacity;
+                        }
                     }
                 }
             }
+            first = last + 1;
         }
-        first = last + 1;
+        sum.into_iter().map(|o| 1.0 - o.min(1.0)).collect()
     }
-    covered
 }
 
-/// Dilates (`grow`) or erodes a mask by a disc of `r` pixels.
-fn morph(mask: &[bool], n: usize, r: i32, grow: bool) -> Vec<bool> {
-    let mut out = vec![!grow; n * n];
-    for y in 0..n as i32 {
-        for x in 0..n as i32 {
-            let mut hit = !grow;
-            'disc: for dy in -r..=r {
-                for dx in -r..=r {
-                    if dx * dx + dy * dy > r * r {
-                        continue;
-                    }
-                    let (xx, yy) = (x + dx, y + dy);
-                    let inside = xx >= 0 && yy >= 0 && xx < n as i32 && yy < n as i32;
-                    let v = inside && mask[yy as usize * n + xx as usize];
-                    if grow && v {
-                        hit = true;
-                        break 'disc;
-                    }
-                    if !grow && !v {
-                        hit = false;
-                        break 'disc;
-                    }
-                }
-            }
-            out[y as usize * n + x as usize] = hit;
-        }
-    }
-    out
+/// Per-point width and opacity of a set: the set's values scaled by the point's own thickness
+/// and opacity, as the strips are built.
+fn per_point(
+    s: &Strands,
+    (width, alpha): (f32, f32),
+) -> (impl Fn(usize) -> f32 + Sync + '_, impl Fn(usize) -> f32 + Sync + '_) {
+    let (thick_ref, alpha_ref) = (s.default_thickness, 1.0 - s.default_transparency);
+    let w = move |p: usize| {
+        let t = s.thickness.as_ref().map_or(thick_ref, |t| t[p]);
+        width * if thick_ref > 0.0 { t / thick_ref } else { 1.0 }
+    };
+    let a = move |p: usize| {
+        let own = 1.0 - s.transparency.as_ref().map_or(s.default_transparency, |t| t[p]);
+        (alpha * if alpha_ref > 0.0 { own / alpha_ref } else { 1.0 }).clamp(0.0, 1.0)
+    };
+    (w, a)
 }
 
-/// A light direction's view with the hair's silhouette in it.
+/// One light direction: its view and the reference shadow (the shading set at
+/// [`REFERENCE_FACTOR`]× the resolution, box-filtered down).
 pub struct LightView {
     view: View,
-    silhouette: Vec<bool>,
-    inside: usize,
+    reference: Vec<f32>,
 }
 
 impl LightView {
-    /// The view along `dir` at `resolution` and the silhouette (closed centre-line coverage).
-    pub fn new(s: &Strands, dir: [f32; 3], resolution: u32) -> LightView {
+    /// The view along `dir` at `resolution` and its reference shadow for `base`'s shading set.
+    pub fn new(s: &Strands, dir: [f32; 3], resolution: u32, base: &StripSets) -> LightView {
         let view = View::new(s, dir, resolution);
-        let n = resolution as usize;
-        let centre = rasterise(s, &view, &|_| 0.0);
-        let silhouette = morph(&morph(&centre, n, CLOSING_RADIUS, true), n, CLOSING_RADIUS, false);
-        let inside = silhouette.iter().filter(|&&x| x).count();
-        LightView { view, silhouette, inside }
-    }
-
-    /// Share of the silhouette's pixels the opacity set of `sets` (each point's width scaled by
-    /// its own thickness) leaves uncovered.
-    pub fn hole_share(&self, s: &Strands, sets: &StripSets) -> f64 {
-        let thick_ref = s.default_thickness;
-        let width = |p: usize| {
-            let t = s.thickness.as_ref().map_or(thick_ref, |t| t[p]);
-            sets.opacity.0 * if thick_ref > 0.0 { t / thick_ref } else { 1.0 }
+        let fine = View {
+            pixel: view.pixel / REFERENCE_FACTOR as f32,
+            n: view.n * REFERENCE_FACTOR as i32,
+            ..View::new(s, dir, resolution)
         };
-        let covered = rasterise(s, &self.view, &width);
-        let holes = self.silhouette.iter().zip(&covered).filter(|&(&si, &c)| si && !c).count();
-        holes as f64 / self.inside.max(1) as f64
+        let (w, a) = per_point(s, base.shading);
+        let detailed = fine.shadow(s, &w, &a);
+        let (n, f) = (resolution as usize, REFERENCE_FACTOR as usize);
+        let mut reference = vec![0.0f32; n * n];
+        for (y, row) in detailed.chunks_exact(n * f).enumerate() {
+            for (x, v) in row.iter().enumerate() {
+                reference[(y / f) * n + x / f] += v;
+            }
+        }
+        reference.iter_mut().for_each(|v| *v /= (f * f) as f32);
+        LightView { view, reference }
+    }
+
+    /// The opacity set of `sets` against the reference: mean squared difference of shadow over
+    /// the pixels in or beside shadow in either (visibility below 0.98), and that pixel count.
+    pub fn squared_error(&self, s: &Strands, sets: &StripSets) -> (f64, usize) {
+        let (w, a) = per_point(s, sets.opacity);
+        let shadow = self.view.shadow(s, &w, &a);
+        let (mut sq, mut n) = (0.0f64, 0usize);
+        for (&c, &r) in shadow.iter().zip(&self.reference) {
+            if c < 0.98 || r < 0.98 {
+                sq += ((c - r) as f64).powi(2);
+                n += 1;
+            }
+        }
+        (sq / n.max(1) as f64, n)
     }
 }
 
-/// Optical depth of a strip `width` wide at opacity `alpha`, per unit length.
-pub fn optical_depth(width: f32, alpha: f32) -> f64 {
-    -(width as f64) * (1.0 - (alpha as f64).min(0.999_999)).ln()
-}
-
-/// The opacity at which a set `width` wide has the optical depth of the shading set.
+/// The opacity at which a set `width` wide accumulates what the shading set does per unit
+/// length (`width × α` equal).
 pub fn matching_alpha(sets: &StripSets, width: f32) -> f32 {
-    let tau = optical_depth(sets.shading.0, sets.shading.1) / width as f64;
-    (1.0 - (-tau).exp()) as f32
+    (sets.shading.1 * sets.shading.0 / width).clamp(0.0, 1.0)
 }
 
 /// Widest opacity set tried, as a multiple of the shading width.
 pub const MAX_WIDTH_RATIO: f32 = 64.0;
 
-/// The automatic choice: the narrowest opacity-set width (bisected in log scale between the
-/// shading width and [`MAX_WIDTH_RATIO`] times it or the width that bridges any gap the
-/// silhouette closes, to 2%) that leaves no hole seen along any of
-/// the six axes at `resolution`, with [`matching_alpha`]. Returns the sets and the largest hole
-/// share left (0 unless even the widest leaves holes).
+/// Candidate widths per doubling of the width.
+const STEPS_PER_DOUBLING: u32 = 4;
+
+/// The automatic choice: among widths from the shading width to [`MAX_WIDTH_RATIO`] times it
+/// (four per doubling), each with [`matching_alpha`], the one whose light-space shadow at
+/// `resolution` is nearest the reference along the six axes (mean squared error over the
+/// views). Returns the sets and that RMS error.
 pub fn choose(s: &Strands, base: &StripSets, resolution: u32) -> (StripSets, f64) {
-    let views: Vec<LightView> = directions()[..6].par_iter().map(|&d| LightView::new(s, d, resolution)).collect();
+    let views: Vec<LightView> = directions()[..6].par_iter().map(|&d| LightView::new(s, d, resolution, base)).collect();
     let with = |width: f32| StripSets { opacity: (width, matching_alpha(base, width)), ..*base };
-    let worst = |sets: &StripSets| views.par_iter().map(|v| v.hole_share(s, sets)).reduce(|| 0.0, f64::max);
-    // Wide enough to bridge any gap the closing fills, whatever the pixel size, at the
-    // thinnest point (tips are tapered).
-    let pixel = views.iter().map(|v| v.view.pixel).fold(0.0f32, f32::max);
-    let thinnest = match (&s.thickness, s.default_thickness > 0.0) {
-        (Some(t), true) => t.iter().fold(f32::INFINITY, |m, &x| m.min(x)) / s.default_thickness,
-        _ => 1.0,
-    }
-    .max(0.05);
-    let bridge = pixel * (2 * CLOSING_RADIUS + 2) as f32 / thinnest;
-    let (mut lo, mut hi) = (base.shading.0, (base.shading.0 * MAX_WIDTH_RATIO).max(bridge));
-    let widest = worst(&with(hi));
-    if widest > 0.0 {
-        return (with(hi), widest);
-    }
-    if worst(&with(lo)) == 0.0 {
-        return (with(lo), 0.0);
-    }
-    while hi / lo > 1.02 {
-        let mid = (lo * hi).sqrt();
-        if worst(&with(mid)) == 0.0 {
-            hi = mid;
-        } else {
-            lo = mid;
-        }
-    }
-    (with(hi), 0.0)
+    let count = (MAX_WIDTH_RATIO.log2() * STEPS_PER_DOUBLING as f32).round() as u32;
+    let scored: Vec<(f32, f64)> = (0..=count)
+        .into_par_iter()
+        .map(|k| {
+            let width = base.shading.0 * 2f32.powf(k as f32 / STEPS_PER_DOUBLING as f32);
+            let mse = views.iter().map(|v| v.squared_error(s, &with(width)).0).sum::<f64>() / views.len() as f64;
+            (width, mse)
+        })
+        .collect();
+    // The narrowest of the best (candidates are in increasing width).
+    let &(width, mse) = scored.iter().min_by(|a, b| a.1.total_cmp(&b.1)).expect("at least one candidate");
+    (with(width), mse.sqrt())
 }

@@ -80,3 +80,41 @@ fn push_out(p: &mut [f32; 3]) {
         p.iter_mut().for_each(|c| *c /= e);
     }
 }
+
+/// Straight, long, combed strands: `count` strands of `points` points hanging from a band
+/// across the back of the head (roots on an arc 24 cm wide, a few millimetres deep), combed
+/// parallel and falling straight down 36–40 cm, with a slight sideways drift so neighbours do
+/// not coincide. Seen from a light above, they make a sheet of near-parallel lines with gaps
+/// between them — the layout where an opacity map can see through the hair. Widths and
+/// opacities as [`hair`]'s (0.016 cm at 0.366, varied per strand). Deterministic in `seed`.
+pub fn combed(count: u32, points: u16, seed: u32) -> Strands {
+    let n = points as usize;
+    let mut out = Strands {
+        segments: vec![points - 1; count as usize],
+        points: Vec::with_capacity(count as usize * n),
+        thickness: Some(Vec::with_capacity(count as usize * n)),
+        transparency: Some(Vec::with_capacity(count as usize * n)),
+        color: None,
+        default_thickness: 0.016,
+        default_transparency: 1.0 - 0.366,
+        default_color: [0.35, 0.22, 0.12],
+    };
+    for s in 0..count {
+        let r = |k: u32| hash01(s as i32, k as i32, seed);
+        // Around the back of the head: angle from −90° to +90° (z < 0 is the back).
+        let a = (r(1) - 0.5) * std::f32::consts::PI;
+        let depth = 0.4 * r(2);
+        let root = [(HEAD[0] + depth) * a.sin(), 2.0 + 0.5 * r(3), -(HEAD[2] + depth) * a.cos()];
+        let length = 36.0 + 4.0 * r(4);
+        let drift = [0.3 * (r(5) - 0.5), 0.3 * (r(6) - 0.5)];
+        let width = 0.016 * (0.8 + 0.4 * r(7));
+        let transparency = 1.0 - 0.366 * (0.6 + 0.4 * r(8));
+        for i in 0..n {
+            let t = i as f32 / (n - 1) as f32;
+            out.points.push([root[0] + drift[0] * t, root[1] - length * t, root[2] + drift[1] * t]);
+            out.thickness.as_mut().expect("set above").push(width * (1.0 - 0.6 * t));
+            out.transparency.as_mut().expect("set above").push(transparency);
+        }
+    }
+    out
+}

@@ -3,7 +3,7 @@
 
 use glam::{Vec3, Vec4};
 
-use super::{HairLight, HairSet, HairUniform};
+use super::{HairLight, HairSet, HairUniform, Lookup};
 
 /// The strips as plain arrays, for the CPU reference.
 #[derive(Clone, Debug, PartialEq)]
@@ -59,9 +59,15 @@ pub fn boundary(z0: f32, step: f32, k: usize) -> f32 {
     z0 + step * (k * (k + 1) / 2) as f32
 }
 
-/// CPU reference of the two light passes: the nearest depth per texel (1 where no hair) and
-/// the cumulative opacity layers, rasterising each triangle at texel centres.
-pub fn accumulate_cpu(s: &StripArrays, light: &HairLight, set: HairSet, resolution: u32) -> (Vec<f32>, Vec<[f32; 4]>) {
+/// Every fragment the light passes rasterise from `set`: `fragment(texel index, light NDC
+/// depth, opacity)` for each texel centre a strip triangle covers, triangle by triangle.
+pub fn for_each_light_fragment(
+    s: &StripArrays,
+    light: &HairLight,
+    set: HairSet,
+    resolution: u32,
+    mut fragment: impl FnMut(usize, f32, f32),
+) {
     let r = resolution as usize;
     let pick = usize::from(set == HairSet::Opacity);
     let screen: Vec<(Vec3, f32)> = (0..s.position.len())
@@ -72,79 +78,124 @@ pub fn accumulate_cpu(s: &StripArrays, light: &HairLight, set: HairSet, resoluti
             (Vec3::new((ndc.x * 0.5 + 0.5) * r as f32, (0.5 - ndc.y * 0.5) * r as f32, ndc.z), s.opacity[v][pick])
         })
         .collect();
-    let mut z0 = vec![1.0f32; r * r];
-    let mut layers = vec![[0.0f32; 4]; r * r];
-    for pass in 0..2 {
-        for tri in s.indices.chunks_exact(3) {
-            let (a, b, c) = (screen[tri[0] as usize], screen[tri[1] as usize], screen[tri[2] as usize]);
-            let (pa, pb, pc) = (a.0, b.0, c.0);
-            let area = (pb.x - pa.x) * (pc.y - pa.y) - (pb.y - pa.y) * (pc.x - pa.x);
-            if area.abs() < 1e-12 {
-                continue;
-            }
-            let (x0, x1) = (
-                pa.x.min(pb.x).min(pc.x).floor().max(0.0) as usize,
-                pa.x.max(pb.x).max(pc.x).ceil().min(r as f32) as usize,
-            );
-            let (y0, y1) = (
-                pa.y.min(pb.y).min(pc.y).floor().max(0.0) as usize,
-                pa.y.max(pb.y).max(pc.y).ceil().min(r as f32) as usize,
-            );
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
-                    let e = |p: Vec3, q: Vec3| ((q.x - p.x) * (py - p.y) - (q.y - p.y) * (px - p.x)) / area;
-                    let (wa, wb, wc) = (e(pb, pc), e(pc, pa), e(pa, pb));
-                    if wa < 0.0 || wb < 0.0 || wc < 0.0 {
-                        continue;
-                    }
-                    let z = wa * pa.z + wb * pb.z + wc * pc.z;
-                    let i = y * r + x;
-                    if pass == 0 {
-                        z0[i] = z0[i].min(z);
-                    } else {
-                        // Opacity is constant along a segment's cross-section; interpolate it too.
-                        let alpha = wa * a.1 + wb * b.1 + wc * c.1;
-                        let near = z0[i];
-                        for (k, layer) in layers[i].iter_mut().enumerate() {
-                            if z < boundary(near, light.step, k + 1) {
-                                *layer += alpha;
-                            }
-                        }
-                    }
+    for tri in s.indices.chunks_exact(3) {
+        let (a, b, c) = (screen[tri[0] as usize], screen[tri[1] as usize], screen[tri[2] as usize]);
+        let (pa, pb, pc) = (a.0, b.0, c.0);
+        let area = (pb.x - pa.x) * (pc.y - pa.y) - (pb.y - pa.y) * (pc.x - pa.x);
+        if area.abs() < 1e-12 {
+            continue;
+        }
+        let (x0, x1) = (
+            pa.x.min(pb.x).min(pc.x).floor().max(0.0) as usize,
+            pa.x.max(pb.x).max(pc.x).ceil().min(r as f32) as usize,
+        );
+        let (y0, y1) = (
+            pa.y.min(pb.y).min(pc.y).floor().max(0.0) as usize,
+            pa.y.max(pb.y).max(pc.y).ceil().min(r as f32) as usize,
+        );
+        for y in y0..y1 {
+            for x in x0..x1 {
+                let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+                let e = |p: Vec3, q: Vec3| ((q.x - p.x) * (py - p.y) - (q.y - p.y) * (px - p.x)) / area;
+                let (wa, wb, wc) = (e(pb, pc), e(pc, pa), e(pa, pb));
+                if wa < 0.0 || wb < 0.0 || wc < 0.0 {
+                    continue;
                 }
+                // Opacity is constant along a segment's cross-section; interpolate it too.
+                fragment(y * r + x, wa * pa.z + wb * pb.z + wc * pc.z, wa * a.1 + wb * b.1 + wc * c.1);
             }
         }
     }
+}
+
+/// CPU reference of the two light passes: the nearest depth per texel (1 where no hair) and
+/// the cumulative opacity layers, rasterising each triangle at texel centres.
+pub fn accumulate_cpu(s: &StripArrays, light: &HairLight, set: HairSet, resolution: u32) -> (Vec<f32>, Vec<[f32; 4]>) {
+    let r = resolution as usize;
+    let mut z0 = vec![1.0f32; r * r];
+    for_each_light_fragment(s, light, set, resolution, |i, z, _| z0[i] = z0[i].min(z));
+    let steps: Vec<f32> = (0..r * r)
+        .map(|i| {
+            let (nx, ny) = texel_ndc(i % r, i / r, resolution);
+            light.step_at(nx, ny, z0[i])
+        })
+        .collect();
+    let mut layers = vec![[0.0f32; 4]; r * r];
+    for_each_light_fragment(s, light, set, resolution, |i, z, alpha| {
+        for (k, layer) in layers[i].iter_mut().enumerate() {
+            if z < boundary(z0[i], steps[i], k + 1) {
+                *layer += alpha;
+            }
+        }
+    });
     (z0, layers)
 }
 
-/// `hair_visibility`: the light reaching `world` through opacity maps read back as `z0` (the
-/// nearest depth per texel) and `layers` (the four cumulative layers), `resolution`² texels.
-pub fn hair_visibility(light: &HairLight, z0: &[f32], layers: &[[f32; 4]], resolution: u32, world: Vec3) -> f32 {
-    let c: Vec4 = light.view_proj * world.extend(1.0);
-    let ndc = c.truncate() / c.w;
+/// `hair_texel_ndc`: light NDC `(x, y)` of the centre of texel `(x, y)` of `resolution`².
+pub fn texel_ndc(x: usize, y: usize, resolution: u32) -> (f32, f32) {
     let r = resolution as f32;
-    let (x, y) = (((ndc.x * 0.5 + 0.5) * r).floor(), ((0.5 - ndc.y * 0.5) * r).floor());
-    if x < 0.0 || y < 0.0 || x >= r || y >= r {
+    ((x as f32 + 0.5) / r * 2.0 - 1.0, 1.0 - (y as f32 + 0.5) / r * 2.0)
+}
+
+/// `hair_texel_visibility`: the light reaching light NDC depth `z` through texel `(x, y)` of
+/// opacity maps read back as `z0` and `layers`.
+pub fn texel_visibility(
+    light: &HairLight,
+    z0: &[f32],
+    layers: &[[f32; 4]],
+    resolution: u32,
+    (x, y): (i64, i64),
+    z: f32,
+) -> f32 {
+    let r = resolution as i64;
+    if x < 0 || y < 0 || x >= r || y >= r {
         return 1.0;
     }
-    let i = y as usize * resolution as usize + x as usize;
+    let i = (y * r + x) as usize;
     let (near, l) = (z0[i], layers[i]);
-    if ndc.z <= near {
+    if z <= near {
         return 1.0;
     }
+    let (nx, ny) = texel_ndc(x as usize, y as usize, resolution);
+    let step = light.step_at(nx, ny, near);
     let mut opacity = l[3];
     let (mut lo, mut before) = (near, 0.0);
     for (k, &layer) in l.iter().enumerate() {
-        let hi = boundary(near, light.step, k + 1);
-        if ndc.z < hi {
-            opacity = before + (layer - before) * ((ndc.z - lo) / (hi - lo).max(1e-9));
+        let hi = boundary(near, step, k + 1);
+        if z < hi {
+            opacity = before + (layer - before) * ((z - lo) / (hi - lo).max(1e-9));
             break;
         }
         (lo, before) = (hi, layer);
     }
     1.0 - opacity.min(1.0)
+}
+
+/// `hair_visibility`: the light reaching `world` through opacity maps read back as `z0` (the
+/// nearest depth per texel) and `layers` (the four cumulative layers), `resolution`² texels,
+/// read by `lookup`.
+pub fn hair_visibility(
+    light: &HairLight,
+    (z0, layers): (&[f32], &[[f32; 4]]),
+    resolution: u32,
+    lookup: Lookup,
+    world: Vec3,
+) -> f32 {
+    let c: Vec4 = light.view_proj * world.extend(1.0);
+    let ndc = c.truncate() / c.w;
+    let r = resolution as f32;
+    let (tx, ty) = ((ndc.x * 0.5 + 0.5) * r, (0.5 - ndc.y * 0.5) * r);
+    let at = |x: f32, y: f32| texel_visibility(light, z0, layers, resolution, (x as i64, y as i64), ndc.z);
+    match lookup {
+        Lookup::Nearest => at(tx.floor(), ty.floor()),
+        Lookup::Bilinear => {
+            let (bx, by) = ((tx - 0.5).floor(), (ty - 0.5).floor());
+            let (fx, fy) = (tx - 0.5 - bx, ty - 0.5 - by);
+            let top = at(bx, by) + (at(bx + 1.0, by) - at(bx, by)) * fx;
+            let bottom = at(bx, by + 1.0) + (at(bx + 1.0, by + 1.0) - at(bx, by + 1.0)) * fx;
+            top + (bottom - top) * fy
+        }
+    }
 }
 
 /// `hair_specular`: the Kajiya-Kay lobe, 1 on the cone of mirror directions around tangent `t`,

@@ -24,12 +24,18 @@ const LAYERS: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const ACCUM: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const REVEALAGE: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
 
-/// The `HairUniform` of the hair WGSL, as it is in the uniform buffer (224 bytes).
+/// The `HairUniform` of the hair WGSL, as it is in the uniform buffer (320 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct HairUniform {
     /// World → light clip, column-major.
     pub light: [[f32; 4]; 4],
+    /// Light clip → world, column-major (for the per-texel layer step).
+    pub light_inverse: [[f32; 4]; 4],
+    /// The hair's bounding box, lower corner (world).
+    pub bounds_min: [f32; 4],
+    /// The hair's bounding box, upper corner (world).
+    pub bounds_max: [f32; 4],
     /// World → camera clip, column-major.
     pub camera: [[f32; 4]; 4],
     /// Camera position.
@@ -50,8 +56,34 @@ pub struct HairUniform {
     pub specular_power: f32,
     /// Kajiya-Kay specular strength.
     pub specular: f32,
+    /// 0: [`LayerRule::Box`](super::LayerRule::Box), 1: per texel.
+    pub layer_rule: u32,
+    /// [`Lookup::code`].
+    pub lookup: u32,
     /// Padding.
-    pub _pad: [u32; 3],
+    pub _pad: u32,
+}
+
+/// How receivers read the opacity maps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Lookup {
+    /// The texel under the point (the seed's: its wide faint set does the anti-aliasing).
+    #[default]
+    Nearest,
+    /// The visibility of the 2×2 texels around the point, each at the point's depth, weighted
+    /// bilinearly: percentage-closer filtering, the usual filtered lookup of plain deep opacity
+    /// maps.
+    Bilinear,
+}
+
+impl Lookup {
+    /// The value of the WGSL uniform's `lookup` field.
+    pub fn code(self) -> u32 {
+        match self {
+            Lookup::Nearest => 0,
+            Lookup::Bilinear => 1,
+        }
+    }
 }
 
 /// What changes from frame to frame.
@@ -74,6 +106,8 @@ pub struct HairFrame {
     pub specular: f32,
     /// Kajiya-Kay specular exponent.
     pub specular_power: f32,
+    /// How receivers (and the hair itself) read the opacity maps.
+    pub lookup: Lookup,
 }
 
 impl HairFrame {
@@ -89,6 +123,7 @@ impl HairFrame {
             ambient: Vec3::splat(0.15),
             specular: 0.25,
             specular_power: 40.0,
+            lookup: Lookup::Nearest,
         }
     }
 }
@@ -324,8 +359,12 @@ impl HairRenderer {
 
     /// The uniform for `frame`.
     pub fn uniform(&self, frame: &HairFrame) -> HairUniform {
+        let (lo, hi) = frame.light.bounds;
         HairUniform {
             light: frame.light.view_proj.to_cols_array_2d(),
+            light_inverse: frame.light.view_proj.inverse().to_cols_array_2d(),
+            bounds_min: lo.extend(0.0).to_array(),
+            bounds_max: hi.extend(0.0).to_array(),
             camera: frame.camera.to_cols_array_2d(),
             eye: frame.eye.extend(1.0).to_array(),
             to_light: frame.light.to_light.normalize().extend(0.0).to_array(),
@@ -336,7 +375,12 @@ impl HairRenderer {
             resolution: self.resolution,
             specular_power: frame.specular_power,
             specular: frame.specular,
-            _pad: [0; 3],
+            layer_rule: match frame.light.rule {
+                super::LayerRule::Box => 0,
+                super::LayerRule::PerTexel => 1,
+            },
+            lookup: frame.lookup.code(),
+            _pad: 0,
         }
     }
 

@@ -7,15 +7,21 @@
 //   1. depth map: the nearest hair depth z0 per texel (R32Float);
 //   2. opacity layers: every fragment adds its opacity to each layer whose far boundary lies
 //      beyond it (cumulative, additive blending into a float target). Boundaries from z0 at
-//      integer multiples of d: z0 + d, z0 + 3d, z0 + 6d, z0 + 10d (layer k is k d deep).
+//      integer multiples of d: z0 + d, z0 + 3d, z0 + 6d, z0 + 10d (layer k is k d deep); d is
+//      the box's depth range / 10, or per texel the span from z0 to where the texel's light
+//      ray leaves the box, / 10.
 // Receivers read the light reaching a point with hair_visibility: the cumulative opacity at
-// its depth, interpolated between boundaries; visibility = 1 - min(opacity, 1).
+// its depth, interpolated between boundaries; visibility = 1 - min(opacity, 1), at the nearest
+// texel or filtered over the 2x2 texels around the point.
 // Camera: the shading set blended at its own opacity, order-independently (weighted blended
 // OIT: an accumulation and a revealage target, then a composite over the scene), or opaque;
 // Kajiya-Kay shading with the highlight where T.E = -T.L.
 
 struct HairUniform {
     light: mat4x4<f32>,         // world -> light clip (orthographic, wgpu depth 0..1)
+    light_inverse: mat4x4<f32>, // light clip -> world
+    bounds_min: vec4<f32>,      // the hair's bounding box (world)
+    bounds_max: vec4<f32>,
     camera: mat4x4<f32>,        // world -> camera clip
     eye: vec4<f32>,             // camera position (world)
     to_light: vec4<f32>,        // unit vector toward the light
@@ -26,9 +32,9 @@ struct HairUniform {
     resolution: u32,            // opacity-map texels per side
     specular_power: f32,        // Kajiya-Kay exponent
     specular: f32,              // Kajiya-Kay specular strength
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    layer_rule: u32,            // layer step: 0 the box's range / 10, 1 per texel
+    lookup: u32,                // receivers: 0 nearest texel, 1 bilinear over 2x2 texels
+    _pad: u32,
 }
 
 @group(0) @binding(0) var<uniform> hair: HairUniform;
@@ -58,32 +64,65 @@ fn hair_expand(p: vec3<f32>, side: f32, t: vec3<f32>, width: f32, toward: vec3<f
     return p + normalize(across) * (side * 0.5 * width);
 }
 
-// Far boundary of layer k (1-based) above the nearest hair depth z0.
-fn hair_boundary(z0: f32, k: u32) -> f32 {
-    return z0 + hair.step * f32(k * (k + 1u) / 2u);
+// Light NDC depth where the light's ray through NDC (x, y) leaves the hair's box; 1 on a miss.
+fn hair_box_exit(xy: vec2<f32>) -> f32 {
+    let a = hair.light_inverse * vec4<f32>(xy, 0.0, 1.0);
+    let b = hair.light_inverse * vec4<f32>(xy, 1.0, 1.0);
+    let p0 = a.xyz / a.w;
+    let dp = b.xyz / b.w - p0;
+    var enter = 0.0;
+    var exit = 1.0;
+    for (var axis = 0; axis < 3; axis = axis + 1) {
+        if (abs(dp[axis]) < 1e-9) {
+            continue;
+        }
+        let t1 = (hair.bounds_min[axis] - p0[axis]) / dp[axis];
+        let t2 = (hair.bounds_max[axis] - p0[axis]) / dp[axis];
+        enter = max(enter, min(t1, t2));
+        exit = min(exit, max(t1, t2));
+    }
+    if (enter > exit) {
+        return 1.0;
+    }
+    return exit;
 }
 
-// Light reaching a world point: 1 - the cumulative opacity in front of it.
-fn hair_visibility(world: vec3<f32>) -> f32 {
-    let c = hair.light * vec4<f32>(world, 1.0);
-    let ndc = c.xyz / c.w;
+// Layer step d of the texel whose centre is at light NDC (x, y), above its nearest hair z0.
+fn hair_step(xy: vec2<f32>, z0: f32) -> f32 {
+    if (hair.layer_rule == 0u) {
+        return hair.step;
+    }
+    return max(hair_box_exit(xy) - z0, 1e-6) / 10.0;
+}
+
+// Light NDC (x, y) of the centre of texel `ij`.
+fn hair_texel_ndc(ij: vec2<i32>) -> vec2<f32> {
     let r = f32(hair.resolution);
-    let texel = vec2<f32>((ndc.x * 0.5 + 0.5) * r, (0.5 - ndc.y * 0.5) * r);
-    let ij = vec2<i32>(floor(texel));
-    if (ij.x < 0 || ij.y < 0 || ij.x >= i32(r) || ij.y >= i32(r)) {
+    return vec2<f32>((f32(ij.x) + 0.5) / r * 2.0 - 1.0, 1.0 - (f32(ij.y) + 0.5) / r * 2.0);
+}
+
+// Far boundary of layer k (1-based) above the nearest hair depth z0, layer step d.
+fn hair_boundary(z0: f32, d: f32, k: u32) -> f32 {
+    return z0 + d * f32(k * (k + 1u) / 2u);
+}
+
+// Light reaching depth z (light NDC) through texel ij: 1 - the cumulative opacity in front.
+fn hair_texel_visibility(ij: vec2<i32>, z: f32) -> f32 {
+    let r = i32(hair.resolution);
+    if (ij.x < 0 || ij.y < 0 || ij.x >= r || ij.y >= r) {
         return 1.0;
     }
     let z0 = textureLoad(hair_depth, ij, 0).r;
-    let z = ndc.z;
     if (z <= z0) {
         return 1.0;
     }
+    let d = hair_step(hair_texel_ndc(ij), z0);
     let layers = textureLoad(hair_layers, ij, 0);
     var opacity = layers.w;
     var lo = z0;
     var before = 0.0;
     for (var k = 0u; k < 4u; k = k + 1u) {
-        let hi = hair_boundary(z0, k + 1u);
+        let hi = hair_boundary(z0, d, k + 1u);
         if (z < hi) {
             opacity = mix(before, layers[k], (z - lo) / max(hi - lo, 1e-9));
             break;
@@ -92,6 +131,24 @@ fn hair_visibility(world: vec3<f32>) -> f32 {
         before = layers[k];
     }
     return 1.0 - min(opacity, 1.0);
+}
+
+// Light reaching a world point through the opacity maps, at the nearest texel or filtered over
+// the 2x2 texels around it.
+fn hair_visibility(world: vec3<f32>) -> f32 {
+    let c = hair.light * vec4<f32>(world, 1.0);
+    let ndc = c.xyz / c.w;
+    let r = f32(hair.resolution);
+    let texel = vec2<f32>((ndc.x * 0.5 + 0.5) * r, (0.5 - ndc.y * 0.5) * r);
+    if (hair.lookup == 0u) {
+        return hair_texel_visibility(vec2<i32>(floor(texel)), ndc.z);
+    }
+    let base = floor(texel - 0.5);
+    let f = texel - 0.5 - base;
+    let ij = vec2<i32>(base);
+    let top = mix(hair_texel_visibility(ij, ndc.z), hair_texel_visibility(ij + vec2<i32>(1, 0), ndc.z), f.x);
+    let bottom = mix(hair_texel_visibility(ij + vec2<i32>(0, 1), ndc.z), hair_texel_visibility(ij + vec2<i32>(1, 1), ndc.z), f.x);
+    return mix(top, bottom, f.y);
 }
 
 // The Kajiya-Kay specular lobe: 1 on the cone of mirror directions around the tangent, where
@@ -142,11 +199,13 @@ fn hair_fs_depth(in: LightOut) -> @location(0) vec4<f32> {
 
 @fragment
 fn hair_fs_opacity(in: LightOut) -> @location(0) vec4<f32> {
-    let z0 = textureLoad(hair_depth, vec2<i32>(floor(in.clip.xy)), 0).r;
+    let ij = vec2<i32>(floor(in.clip.xy));
+    let z0 = textureLoad(hair_depth, ij, 0).r;
+    let d = hair_step(hair_texel_ndc(ij), z0);
     let z = in.clip.z;
     var out = vec4<f32>(0.0);
     for (var k = 0u; k < 4u; k = k + 1u) {
-        if (z < hair_boundary(z0, k + 1u)) {
+        if (z < hair_boundary(z0, d, k + 1u)) {
             out[k] = in.alpha;
         }
     }
