@@ -64,7 +64,7 @@ fn concurrent_pipelines_leave_exactly_one_of_them() {
     let dir = Dir::new("concurrent_pipelines");
     dir.write("a/x.png", png(1));
     dir.write("b/y.png", png(2));
-    let pipeline = |job: &str| format!("(output: \"../shared\", jobs: [{job}])");
+    let pipeline = |job: &str| format!("(output: \"../common\", jobs: [{job}])");
     dir.write("a/pipeline.ron", pipeline("Horizon(id: \"x\", input: \"x.png\", directions: 16)"));
     dir.write(
         "b/pipeline.ron",
@@ -77,7 +77,7 @@ fn concurrent_pipelines_leave_exactly_one_of_them() {
         r.write("b/y.png", png(2));
         r.write(p, dir.read(p));
         r.run(&["bake", p]);
-        std::fs::read(r.path("shared/bundle.ron")).unwrap()
+        std::fs::read(r.path("common/bundle.ron")).unwrap()
     };
     let (ra, rb) = (reference("a/pipeline.ron"), reference("b/pipeline.ron"));
     for round in 0..10 {
@@ -86,8 +86,8 @@ fn concurrent_pipelines_leave_exactly_one_of_them() {
             let out = c.wait_with_output().unwrap();
             assert!(out.status.success(), "round {round}: {}", String::from_utf8_lossy(&out.stderr));
         }
-        dir.run(&["validate", "shared"]);
-        let manifest = std::fs::read(dir.path("shared/bundle.ron")).unwrap();
+        dir.run(&["validate", "common"]);
+        let manifest = std::fs::read(dir.path("common/bundle.ron")).unwrap();
         assert!(manifest == ra || manifest == rb, "round {round}: the bundle is neither pipeline's");
     }
 }
