@@ -1,8 +1,9 @@
-//! Heightfields: import from PNG and OpenEXR, and their world units (`docs/conventions.md`).
+//! Heightfields: import from PNG, OpenEXR and SRTM `.hgt`, and their world units
+//! (`docs/conventions.md`).
 //!
 //! A heightfield is a grid of samples, row-major with row 0 first (`u` = column, `v` = row).
-//! Integer images are normalised to [0, 1] (8-bit by 255, 16-bit by 65535); float images are
-//! taken as they are. World height is `height_offset + height_scale × sample`, and a texel spans
+//! Integer images are normalised to [0, 1] (8-bit by 255, 16-bit by 65535); float images and
+//! elevation grids (`.hgt`, metres) are taken as they are. World height is `height_offset + height_scale × sample`, and a texel spans
 //! `texel_size = (sx, sy)` world units along `u` and `v`.
 //!
 //! Channel rule: a grayscale PNG gives its luma (alpha, if any, is ignored). A colour PNG is an
@@ -11,6 +12,7 @@
 //! listing them. Only the first layer of a multi-layer EXR is read.
 
 mod exr;
+mod hgt;
 mod png;
 
 use std::path::Path;
@@ -115,9 +117,13 @@ pub struct Samples {
     pub channel: String,
 }
 
-/// Loads samples from a PNG or EXR file (chosen by its first bytes, not its extension) and
-/// checks that every sample is finite.
+/// Loads samples from a PNG or EXR file (chosen by its first bytes, not its extension) or an
+/// SRTM `.hgt` tile (chosen by its extension: the format has no signature), and checks that
+/// every sample is finite.
 pub fn load_samples(path: &Path, options: &LoadOptions) -> Result<Samples, BakeError> {
+    if hgt::is_hgt(path) {
+        return hgt::load(path, options);
+    }
     let mut magic = [0u8; 8];
     {
         use std::io::Read;
@@ -135,7 +141,7 @@ pub fn load_samples(path: &Path, options: &LoadOptions) -> Result<Samples, BakeE
         return Err(BakeError::input(
             path,
             Some("byte 0".into()),
-            "expected a PNG or OpenEXR signature; other formats are not read",
+            "expected a PNG or OpenEXR signature (or an SRTM tile named *.hgt); other formats are not read",
         ));
     };
     if let Some(i) = samples.values.iter().position(|v| !v.is_finite()) {
