@@ -465,3 +465,21 @@ fn curvature_bakes_from_gltf_as_from_obj() {
     dir.run(&["bake", "r.ron"]);
     assert!(curvature(&dir) != before, "a changed buffer file did not rebake");
 }
+
+/// A raw engine heightmap through the one-shot horizon bake: `--raw-size` gives its shape, the
+/// heights are taken as stored (the height asset holds them exactly), and a wrong size is
+/// refused naming the file.
+#[test]
+fn raw_heightmaps_bake_with_their_size() {
+    let dir = Dir::new("raw_heightmap");
+    let (w, h) = (8u32, 4u32);
+    let values: Vec<u16> = (0..w * h).map(|i| (i * 37 % 500) as u16).collect();
+    dir.write("map.r16", values.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>());
+    dir.run(&["horizon", "map.r16", "--raw-size", "8x4", "--out", "b", "--directions", "4", "--edge", "clamp"]);
+    dir.run(&["export", "b", "map.height", "--raw", "--out", "h.f32"]);
+    let got: Vec<f32> = dir.read("h.f32").chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+    assert_eq!(got, values.iter().map(|&v| v as f32).collect::<Vec<_>>());
+    let args = ["horizon", "map.r16", "--raw-size", "8x5", "--out", "c"];
+    let out = dir.run_expecting(&args, 1);
+    assert!(stderr(&out).contains("map.r16") && stderr(&out).contains("80 bytes, found 64"), "{}", stderr(&out));
+}

@@ -95,7 +95,7 @@ pub fn pipeline(data: &[u8]) {
 pub fn heightfield(data: &[u8]) {
     let path = scratch().join("heightfield");
     if std::fs::write(&path, data).is_ok() {
-        let options = hikage_bake::LoadOptions { channel: None, max_dimension: 1024 };
+        let options = hikage_bake::LoadOptions { max_dimension: 1024, ..Default::default() };
         let _ = hikage_bake::heightfield::load_samples(&path, &options);
     }
 }

@@ -1,9 +1,9 @@
-//! Heightfields: import from PNG, OpenEXR and SRTM `.hgt`, and their world units
-//! (`docs/conventions.md`).
+//! Heightfields: import from PNG, OpenEXR, SRTM `.hgt` and raw `.r16`/`.r32`, and their world
+//! units (`docs/conventions.md`).
 //!
 //! A heightfield is a grid of samples, row-major with row 0 first (`u` = column, `v` = row).
-//! Integer images are normalised to [0, 1] (8-bit by 255, 16-bit by 65535); float images and
-//! elevation grids (`.hgt`, metres) are taken as they are. World height is `height_offset + height_scale × sample`, and a texel spans
+//! Integer images are normalised to [0, 1] (8-bit by 255, 16-bit by 65535); float images,
+//! elevation grids (`.hgt`, metres) and raw heightmaps are taken as they are. World height is `height_offset + height_scale × sample`, and a texel spans
 //! `texel_size = (sx, sy)` world units along `u` and `v`.
 //!
 //! Channel rule: a grayscale PNG gives its luma (alpha, if any, is ignored). A colour PNG is an
@@ -14,6 +14,7 @@
 mod exr;
 mod hgt;
 mod png;
+mod raw;
 
 use std::path::Path;
 
@@ -29,11 +30,14 @@ pub struct LoadOptions {
     pub channel: Option<String>,
     /// Largest width or height accepted; checked from the file header before decoding.
     pub max_dimension: u32,
+    /// Width and height of a raw `.r16`/`.r32` heightmap (it has no header); `None` takes a
+    /// square map's side from the file's length.
+    pub raw_size: Option<(u32, u32)>,
 }
 
 impl Default for LoadOptions {
     fn default() -> Self {
-        LoadOptions { channel: None, max_dimension: 16_384 }
+        LoadOptions { channel: None, max_dimension: 16_384, raw_size: None }
     }
 }
 
@@ -124,6 +128,10 @@ pub fn load_samples(path: &Path, options: &LoadOptions) -> Result<Samples, BakeE
     if hgt::is_hgt(path) {
         return hgt::load(path, options);
     }
+    if let Some(bytes) = raw::bytes_per_sample(path) {
+        let samples = raw::load(path, options, bytes)?;
+        return finite(path, samples);
+    }
     let mut magic = [0u8; 8];
     {
         use std::io::Read;
@@ -141,9 +149,14 @@ pub fn load_samples(path: &Path, options: &LoadOptions) -> Result<Samples, BakeE
         return Err(BakeError::input(
             path,
             Some("byte 0".into()),
-            "expected a PNG or OpenEXR signature (or an SRTM tile named *.hgt); other formats are not read",
+            "expected a PNG or OpenEXR signature (or a file named *.hgt, *.r16 or *.r32); other formats are not read",
         ));
     };
+    finite(path, samples)
+}
+
+/// The samples, or an error naming the first that is not finite.
+fn finite(path: &Path, samples: Samples) -> Result<Samples, BakeError> {
     if let Some(i) = samples.values.iter().position(|v| !v.is_finite()) {
         let (x, y) = (i % samples.width as usize, i / samples.width as usize);
         return Err(BakeError::input(

@@ -41,7 +41,7 @@ impl HeightFormat {
 pub struct HeightfieldJob {
     /// Asset id.
     pub id: String,
-    /// PNG (8/16-bit) or OpenEXR file.
+    /// PNG (8/16-bit), OpenEXR, SRTM `.hgt` or raw `.r16`/`.r32` file.
     pub input: PathBuf,
     /// Channel to take; see [`crate::heightfield`] for the rule when absent.
     #[serde(default)]
@@ -58,6 +58,17 @@ pub struct HeightfieldJob {
     /// Storage format.
     #[serde(default)]
     pub format: HeightFormat,
+    /// Width and height of a raw `.r16`/`.r32` input (none: a square map's side from its length).
+    #[serde(default)]
+    pub raw_size: Option<(u32, u32)>,
+}
+
+/// Parses a raw heightmap's size written `WxH` (the command line's `--raw-size`).
+#[cfg(feature = "clap")]
+pub fn parse_raw_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or("expected WxH")?;
+    let num = |p: &str| p.trim().parse::<u32>().map_err(|e| format!("{p:?}: {e}"));
+    Ok((num(w)?, num(h)?))
 }
 
 /// Parses a texel size written `SX` or `SX,SY` (the command line's `--texel-size`).
@@ -90,13 +101,18 @@ impl HeightfieldJob {
             height_scale: 1.0,
             height_offset: 0.0,
             format: HeightFormat::R32Float,
+            raw_size: None,
         }
     }
 
     /// Loads the input with the job's world units attached.
     pub fn load(&self, ctx: &JobContext) -> Result<Heightfield, BakeError> {
         let path = ctx.base_dir.join(&self.input);
-        let options = LoadOptions { channel: self.channel.clone(), max_dimension: ctx.limits.max_dimension };
+        let options = LoadOptions {
+            channel: self.channel.clone(),
+            max_dimension: ctx.limits.max_dimension,
+            raw_size: self.raw_size,
+        };
         let s = load_samples(&path, &options)?;
         Ok(Heightfield {
             width: s.width,
@@ -142,8 +158,10 @@ impl Baker for HeightfieldJob {
     }
 
     fn canonical_settings(&self) -> String {
+        // A raw size is appended only when given, so the inputs hashed before it keep their hash.
+        let raw = self.raw_size.map(|(w, h)| format!(";raw_size=({w},{h})")).unwrap_or_default();
         format!(
-            "channel={:?};texel_size=({:?},{:?});height_scale={:?};height_offset={:?};format={:?}",
+            "channel={:?};texel_size=({:?},{:?});height_scale={:?};height_offset={:?};format={:?}{raw}",
             self.channel, self.texel_size.0, self.texel_size.1, self.height_scale, self.height_offset, self.format
         )
     }

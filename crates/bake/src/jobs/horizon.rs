@@ -23,8 +23,13 @@ pub struct HorizonJob {
     /// Prefix of the asset ids.
     #[cfg_attr(feature = "clap", arg(skip))]
     pub id: String,
-    /// Heightfield image: PNG (8/16-bit) or OpenEXR.
+    /// Heightfield: PNG (8/16-bit), OpenEXR, SRTM .hgt, or raw .r16/.r32.
     pub input: PathBuf,
+    /// Width and height of a raw .r16/.r32 input, WxH (none: a square map's side from its
+    /// length).
+    #[serde(default)]
+    #[cfg_attr(feature = "clap", arg(long, value_name = "WxH", value_parser = super::heightfield::parse_raw_size))]
+    pub raw_size: Option<(u32, u32)>,
     /// Channel of the input to take: R, G, B, A, Y or an EXR channel name (default: a grayscale
     /// PNG's luma; an EXR's Y, else R, else its only channel).
     #[serde(default)]
@@ -89,6 +94,7 @@ impl HorizonJob {
         HorizonJob {
             id: id.to_string(),
             input,
+            raw_size: None,
             channel: None,
             texel_size: unit_texel(),
             height_scale: 1.0,
@@ -112,6 +118,7 @@ impl HorizonJob {
             height_scale: self.height_scale,
             height_offset: self.height_offset,
             format: self.height_format,
+            raw_size: self.raw_size,
         }
     }
 
