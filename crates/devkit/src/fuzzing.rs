@@ -91,7 +91,7 @@ pub fn pipeline(data: &[u8]) {
     }
 }
 
-/// PNG or OpenEXR bytes → [`hikage_bake::heightfield::load_samples`] (sides up to 1024).
+/// Image bytes (PNG, OpenEXR, TIFF) → [`hikage_bake::heightfield::load_samples`] (sides up to 1024).
 pub fn heightfield(data: &[u8]) {
     let path = scratch().join("heightfield");
     if std::fs::write(&path, data).is_ok() {

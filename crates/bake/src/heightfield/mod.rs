@@ -1,9 +1,9 @@
-//! Heightfields: import from PNG, OpenEXR, SRTM `.hgt` and raw `.r16`/`.r32`, and their world
-//! units (`docs/conventions.md`).
+//! Heightfields: import from PNG, OpenEXR, TIFF/GeoTIFF, SRTM `.hgt` and raw `.r16`/`.r32`, and
+//! their world units (`docs/conventions.md`).
 //!
 //! A heightfield is a grid of samples, row-major with row 0 first (`u` = column, `v` = row).
 //! Integer images are normalised to [0, 1] (8-bit by 255, 16-bit by 65535); float images,
-//! elevation grids (`.hgt`, metres) and raw heightmaps are taken as they are. World height is `height_offset + height_scale × sample`, and a texel spans
+//! elevation grids (TIFF, `.hgt`, metres) and raw heightmaps are taken as they are. World height is `height_offset + height_scale × sample`, and a texel spans
 //! `texel_size = (sx, sy)` world units along `u` and `v`.
 //!
 //! Channel rule: a grayscale PNG gives its luma (alpha, if any, is ignored). A colour PNG is an
@@ -15,6 +15,7 @@ mod exr;
 mod hgt;
 mod png;
 mod raw;
+mod tiff;
 
 use std::path::Path;
 
@@ -145,11 +146,13 @@ pub fn load_samples(path: &Path, options: &LoadOptions) -> Result<Samples, BakeE
         png::load(path, options)?
     } else if magic.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
         exr::load(path, options)?
+    } else if tiff::is_tiff(&magic) {
+        tiff::load(path, options)?
     } else {
         return Err(BakeError::input(
             path,
             Some("byte 0".into()),
-            "expected a PNG or OpenEXR signature (or a file named *.hgt, *.r16 or *.r32); other formats are not read",
+            "expected a PNG, OpenEXR or TIFF signature (or a file named *.hgt, *.r16 or *.r32); other formats are not read",
         ));
     };
     finite(path, samples)
