@@ -12,3 +12,4 @@ mod gpu_fit;
 mod gpu_hair;
 mod gpu_horizon;
 mod gpu_relief;
+mod shard;

@@ -13,6 +13,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use hikage_bake::export::{ExportFormat, export_gltf, export_texture};
 use hikage_bake::jobs::{HorizonJob, ReliefJob, StrandsJob};
 use hikage_bake::run::{RunOptions, check_pipeline, run_one_job, run_pipeline};
+use hikage_bake::shard::Shard;
 use hikage_bake::{BakeError, Job};
 use hikage_bundle::{Bundle, BundleError};
 
@@ -45,6 +46,20 @@ enum Command {
         /// Worker threads (default: one per core). Output is identical for any value.
         #[arg(long, short = 'j', value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
         jobs: Option<u16>,
+        /// Bake only shard K of an N-way split into a partial bundle (`hikage merge` joins the
+        /// parts); `env/N` takes K from JOB_COMPLETION_INDEX or SLURM_ARRAY_TASK_ID.
+        #[arg(long, value_name = "K/N", value_parser = Shard::parse)]
+        shard: Option<Shard>,
+    },
+    /// Merge the partial bundles of every shard of one pipeline into OUT: the bundle one
+    /// machine would have baked.
+    #[command(after_help = EXIT_CODES)]
+    Merge {
+        /// The bundle directory to write.
+        out: PathBuf,
+        /// The partial bundles, one per shard.
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
     },
     /// Validate a bundle directory, or a pipeline file without baking it.
     #[command(after_help = EXIT_CODES)]
@@ -194,7 +209,8 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<(), Failure> {
     match cli.command {
-        Command::Bake { pipeline, force, jobs } => bake(&pipeline, force, jobs),
+        Command::Bake { pipeline, force, jobs, shard } => bake(&pipeline, force, jobs, shard),
+        Command::Merge { out, parts } => merge(&out, &parts),
         Command::Validate { path, format } => validate(&path, format),
         Command::Inspect { bundle, format } => inspect(&bundle, format),
         Command::Export { bundle, asset, out, gltf, raw, channel } => match (out, gltf) {
@@ -229,7 +245,8 @@ impl OneShot {
 fn one_shot(job: Job, target: &OneShot) -> Result<(), Failure> {
     let out = &target.out;
     let observer = progress::Bars::new();
-    let options = RunOptions { force: target.force, threads: target.jobs.map(usize::from), observer: &observer };
+    let options =
+        RunOptions { force: target.force, threads: target.jobs.map(usize::from), observer: &observer, shard: None };
     let report = run_one_job(&job, out, &options)
         .with_context(|| format!("baking `{}` into {}", job.baker().id(), out.display()));
     observer.finish();
@@ -238,9 +255,15 @@ fn one_shot(job: Job, target: &OneShot) -> Result<(), Failure> {
     Ok(())
 }
 
-fn bake(pipeline: &Path, force: bool, jobs: Option<u16>) -> Result<(), Failure> {
+fn merge(out: &Path, parts: &[PathBuf]) -> Result<(), Failure> {
+    let report = hikage_bake::shard::merge(out, parts).with_context(|| format!("merging into {}", out.display()))?;
+    println!("{}: merged {} assets from {} parts", out.display(), report.assets, report.parts.len());
+    Ok(())
+}
+
+fn bake(pipeline: &Path, force: bool, jobs: Option<u16>, shard: Option<Shard>) -> Result<(), Failure> {
     let observer = progress::Bars::new();
-    let options = RunOptions { force, threads: jobs.map(usize::from), observer: &observer };
+    let options = RunOptions { force, threads: jobs.map(usize::from), observer: &observer, shard };
     let report = run_pipeline(pipeline, &options).with_context(|| format!("baking {}", pipeline.display()));
     observer.finish();
     let report = report?;

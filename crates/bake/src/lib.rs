@@ -32,6 +32,7 @@ pub mod mesh;
 pub mod pipeline;
 pub mod relief;
 pub mod run;
+pub mod shard;
 pub mod strands;
 
 pub use error::BakeError;

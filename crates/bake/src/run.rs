@@ -13,6 +13,7 @@ use crate::error::BakeError;
 use crate::jobs::{BakedPayload, Baker, Job, JobContext};
 use crate::limits::InputLimits;
 use crate::pipeline::{LoadedPipeline, Pipeline};
+use crate::shard::{SHARD_FILE, Shard, ShardRecord};
 
 /// Receives progress while a pipeline runs. Implementations must be cheap: `progress` may be
 /// called often and from worker threads.
@@ -39,11 +40,13 @@ pub struct RunOptions<'a> {
     pub threads: Option<usize>,
     /// Progress receiver.
     pub observer: &'a dyn Observer,
+    /// Bake only this shard's jobs into a partial bundle ([`crate::shard`]).
+    pub shard: Option<Shard>,
 }
 
 impl Default for RunOptions<'_> {
     fn default() -> Self {
-        RunOptions { force: false, threads: None, observer: &Silent }
+        RunOptions { force: false, threads: None, observer: &Silent, shard: None }
     }
 }
 
@@ -91,14 +94,30 @@ pub fn run_loaded(loaded: &LoadedPipeline, options: &RunOptions) -> Result<RunRe
     };
     let mut report = RunReport { bundle: out.clone(), ..Default::default() };
     report.watched.push(loaded.path.clone());
-    let total = loaded.pipeline.jobs.len();
-    for (index, job) in loaded.pipeline.jobs.iter().enumerate() {
-        let job = job.baker();
+    let jobs: Vec<&dyn Baker> = loaded
+        .pipeline
+        .jobs
+        .iter()
+        .map(Job::baker)
+        .filter(|job| options.shard.is_none_or(|s| s.has(job.id())))
+        .collect();
+    let total = jobs.len();
+    for (index, job) in jobs.into_iter().enumerate() {
         run_job(&mut writer, job, &loaded.base_dir, &loaded.pipeline.limits, options, (index, total), &mut report)?;
     }
     let summary = writer.commit_waiting(&|lock| options.observer.waiting_for_lock(lock))?;
     report.removed = summary.removed;
     report.manifest_written = summary.manifest_written;
+    // A partial bundle says which pipeline and split it is; a whole one says nothing.
+    match options.shard {
+        Some(shard) => ShardRecord::new(&loaded.path, shard)?.write(&out)?,
+        None => {
+            let record = out.join(SHARD_FILE);
+            if record.exists() {
+                std::fs::remove_file(&record).map_err(|e| BakeError::io(&record, e))?;
+            }
+        }
+    }
     Ok(report)
 }
 

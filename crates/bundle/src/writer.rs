@@ -157,6 +157,35 @@ impl BundleWriter {
         self.changes.insert(id.to_string(), None);
     }
 
+    /// Stages the payload of an asset taken from another bundle (merging shards) and adds or
+    /// replaces it; the bytes must be the asset's own (length, BLAKE3 and file name agree).
+    pub fn put_existing(&mut self, asset: Asset, bytes: &[u8]) -> Result<(), BundleError> {
+        check_asset_id(&asset.id).map_err(|m| BundleError::InvalidData(format!("asset {m}")))?;
+        let hash = blake3::hash(bytes).to_hex().to_string();
+        let ext = asset.file.rsplit_once('.').map(|(_, e)| e).unwrap_or_default();
+        if bytes.len() as u64 != asset.byte_length || hash != asset.blake3 {
+            return Err(BundleError::InvalidData(format!(
+                "asset `{}`: payload of {} bytes with BLAKE3 {hash} does not match its manifest entry ({} bytes, {})",
+                asset.id,
+                bytes.len(),
+                asset.byte_length,
+                asset.blake3
+            )));
+        }
+        if !matches!(ext, "ktx2" | "bin") || asset.file != payload_file_name(&asset.id, &hash, ext) {
+            return Err(BundleError::InvalidData(format!(
+                "asset `{}`: unexpected payload file name `{}`",
+                asset.id, asset.file
+            )));
+        }
+        if !self.staged.contains_key(&asset.file) {
+            let temp = stage(&self.dir, &self.tag, &asset.file, bytes)?;
+            self.staged.insert(asset.file.clone(), temp);
+        }
+        self.changes.insert(asset.id.clone(), Some(asset));
+        Ok(())
+    }
+
     /// Encodes a texture as KTX2, stages it, and adds or replaces asset `id`.
     pub fn put_texture(
         &mut self,
