@@ -4,6 +4,7 @@ mod util;
 
 mod bad_input;
 mod bake;
+mod cache;
 mod concurrency;
 mod corpus;
 mod data;

@@ -10,6 +10,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use hikage_bake::cache::Cache;
 use hikage_bake::export::{ExportFormat, export_gltf, export_texture};
 use hikage_bake::jobs::{HorizonJob, ReliefJob, StrandsJob};
 use hikage_bake::run::{RunOptions, check_pipeline, run_one_job, run_pipeline};
@@ -50,6 +51,13 @@ enum Command {
         /// parts); `env/N` takes K from JOB_COMPLETION_INDEX or SLURM_ARRAY_TASK_ID.
         #[arg(long, value_name = "K/N", value_parser = Shard::parse)]
         shard: Option<Shard>,
+        /// A cache of baked payloads shared between checkouts and machines (overrides the
+        /// pipeline's `cache`).
+        #[arg(long, value_name = "DIR")]
+        cache: Option<PathBuf>,
+        /// The cache's size bound, GiB; the least recently used entries go first.
+        #[arg(long, value_name = "GIB", default_value_t = 20)]
+        cache_max_gib: u64,
     },
     /// Merge the partial bundles of every shard of one pipeline into OUT: the bundle one
     /// machine would have baked.
@@ -209,7 +217,16 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<(), Failure> {
     match cli.command {
-        Command::Bake { pipeline, force, jobs, shard } => bake(&pipeline, force, jobs, shard),
+        Command::Bake { pipeline, force, jobs, shard, cache, cache_max_gib } => {
+            let cache = match cache {
+                Some(dir) => Some(
+                    Cache::open(&dir, cache_max_gib << 30)
+                        .with_context(|| format!("opening the cache {}", dir.display()))?,
+                ),
+                None => None,
+            };
+            bake(&pipeline, force, jobs, shard, cache)
+        }
         Command::Merge { out, parts } => merge(&out, &parts),
         Command::Validate { path, format } => validate(&path, format),
         Command::Inspect { bundle, format } => inspect(&bundle, format),
@@ -245,8 +262,12 @@ impl OneShot {
 fn one_shot(job: Job, target: &OneShot) -> Result<(), Failure> {
     let out = &target.out;
     let observer = progress::Bars::new();
-    let options =
-        RunOptions { force: target.force, threads: target.jobs.map(usize::from), observer: &observer, shard: None };
+    let options = RunOptions {
+        force: target.force,
+        threads: target.jobs.map(usize::from),
+        observer: &observer,
+        ..Default::default()
+    };
     let report = run_one_job(&job, out, &options)
         .with_context(|| format!("baking `{}` into {}", job.baker().id(), out.display()));
     observer.finish();
@@ -261,17 +282,24 @@ fn merge(out: &Path, parts: &[PathBuf]) -> Result<(), Failure> {
     Ok(())
 }
 
-fn bake(pipeline: &Path, force: bool, jobs: Option<u16>, shard: Option<Shard>) -> Result<(), Failure> {
+fn bake(
+    pipeline: &Path,
+    force: bool,
+    jobs: Option<u16>,
+    shard: Option<Shard>,
+    cache: Option<Cache>,
+) -> Result<(), Failure> {
     let observer = progress::Bars::new();
-    let options = RunOptions { force, threads: jobs.map(usize::from), observer: &observer, shard };
+    let options = RunOptions { force, threads: jobs.map(usize::from), observer: &observer, shard, cache };
     let report = run_pipeline(pipeline, &options).with_context(|| format!("baking {}", pipeline.display()));
     observer.finish();
     let report = report?;
     println!(
-        "{}: baked {}, skipped {}{}",
+        "{}: baked {}, skipped {}{}{}",
         report.bundle.display(),
         report.baked.len(),
         report.skipped.len(),
+        if report.cached.is_empty() { String::new() } else { format!(", from the cache {}", report.cached.len()) },
         if report.removed.is_empty() {
             String::new()
         } else {

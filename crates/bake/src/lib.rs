@@ -20,6 +20,7 @@
 //! hikage_bake::run::run_for_build_script("assets/pipeline.ron".as_ref()).unwrap();
 //! ```
 
+pub mod cache;
 pub mod curvature;
 mod error;
 pub mod export;

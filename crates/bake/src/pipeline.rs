@@ -30,6 +30,10 @@ pub struct Pipeline {
     /// Limits applied to inputs before they are decoded.
     #[serde(default)]
     pub limits: InputLimits,
+    /// A shared cache of baked payloads (relative to the pipeline file), kept to 20 GiB;
+    /// `hikage bake --cache` overrides it.
+    #[serde(default)]
+    pub cache: Option<PathBuf>,
     /// The jobs, baked in order.
     pub jobs: Vec<Job>,
 }

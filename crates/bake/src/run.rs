@@ -7,13 +7,17 @@
 
 use std::path::{Path, PathBuf};
 
-use hikage_bundle::{BundleWriter, WriteMode};
+use hikage_bundle::{Asset, BundleWriter, WriteMode};
 
+use crate::cache::Cache;
 use crate::error::BakeError;
 use crate::jobs::{BakedPayload, Baker, Job, JobContext};
 use crate::limits::InputLimits;
 use crate::pipeline::{LoadedPipeline, Pipeline};
 use crate::shard::{SHARD_FILE, Shard, ShardRecord};
+
+/// The cache's size bound when a pipeline names a cache directory: 20 GiB.
+pub const DEFAULT_CACHE_BYTES: u64 = 20 << 30;
 
 /// Receives progress while a pipeline runs. Implementations must be cheap: `progress` may be
 /// called often and from worker threads.
@@ -42,11 +46,13 @@ pub struct RunOptions<'a> {
     pub observer: &'a dyn Observer,
     /// Bake only this shard's jobs into a partial bundle ([`crate::shard`]).
     pub shard: Option<Shard>,
+    /// A shared cache of baked payloads ([`crate::cache`]); the pipeline's `cache` when `None`.
+    pub cache: Option<Cache>,
 }
 
 impl Default for RunOptions<'_> {
     fn default() -> Self {
-        RunOptions { force: false, threads: None, observer: &Silent, shard: None }
+        RunOptions { force: false, threads: None, observer: &Silent, shard: None, cache: None }
     }
 }
 
@@ -59,6 +65,8 @@ pub struct RunReport {
     pub baked: Vec<String>,
     /// Jobs skipped because their inputs had not changed.
     pub skipped: Vec<String>,
+    /// Jobs whose assets came from the cache.
+    pub cached: Vec<String>,
     /// Stale payload files removed.
     pub removed: Vec<String>,
     /// The pipeline file and every input file (for `cargo:rerun-if-changed`).
@@ -102,10 +110,25 @@ pub fn run_loaded(loaded: &LoadedPipeline, options: &RunOptions) -> Result<RunRe
         .filter(|job| options.shard.is_none_or(|s| s.has(job.id())))
         .collect();
     let total = jobs.len();
+    let cache = match (&options.cache, &loaded.pipeline.cache) {
+        (Some(c), _) => Some(c.clone()),
+        (None, Some(dir)) => Some(Cache::open(&loaded.resolve(dir), DEFAULT_CACHE_BYTES)?),
+        (None, None) => None,
+    };
+    let mut baked = Vec::new();
     for (index, job) in jobs.into_iter().enumerate() {
-        run_job(&mut writer, job, &loaded.base_dir, &loaded.pipeline.limits, options, (index, total), &mut report)?;
+        let run = JobRun { base_dir: &loaded.base_dir, limits: &loaded.pipeline.limits, cache: cache.as_ref() };
+        if let Some(made) = run_job(&mut writer, job, &run, options, (index, total), &mut report)? {
+            baked.push(made);
+        }
     }
     let summary = writer.commit_waiting(&|lock| options.observer.waiting_for_lock(lock))?;
+    if let Some(cache) = &cache {
+        for (hash, assets) in &baked {
+            cache.put(hash, assets, &out)?;
+        }
+        cache.evict()?;
+    }
     report.removed = summary.removed;
     report.manifest_written = summary.manifest_written;
     // A partial bundle says which pipeline and split it is; a whole one says nothing.
@@ -121,20 +144,27 @@ pub fn run_loaded(loaded: &LoadedPipeline, options: &RunOptions) -> Result<RunRe
     Ok(report)
 }
 
-/// Bakes one job into `writer`, or keeps its assets when its input hash is unchanged.
+/// Where a job runs: its inputs' directory, the limits, the cache.
+struct JobRun<'a> {
+    base_dir: &'a Path,
+    limits: &'a InputLimits,
+    cache: Option<&'a Cache>,
+}
+
+/// Bakes one job into `writer`, or keeps its assets when its input hash is unchanged, or takes
+/// them from the cache. Returns the input hash and assets of a job it baked, for the cache.
 fn run_job(
     writer: &mut BundleWriter,
     job: &dyn Baker,
-    base_dir: &Path,
-    limits: &InputLimits,
+    run: &JobRun,
     options: &RunOptions,
     (index, total): (usize, usize),
     report: &mut RunReport,
-) -> Result<(), BakeError> {
+) -> Result<Option<(String, Vec<Asset>)>, BakeError> {
     let id = job.id().to_string();
     options.observer.job_started(index, total, &id, job.kind());
-    report.watched.extend(job.inputs(base_dir));
-    let hash = crate::hash::job_hash(job, base_dir, limits)?;
+    report.watched.extend(job.inputs(run.base_dir));
+    let hash = crate::hash::job_hash(job, run.base_dir, run.limits)?;
     let reusable: Option<Vec<_>> =
         if options.force { None } else { job.outputs().iter().map(|o| writer.reusable(o, &hash)).collect() };
     if let Some(assets) = reusable {
@@ -143,19 +173,28 @@ fn run_job(
         }
         report.skipped.push(id.clone());
         options.observer.job_finished(&id, true);
-        return Ok(());
+        return Ok(None);
+    }
+    if let Some(found) = run.cache.filter(|_| !options.force).and_then(|c| c.get(&hash)) {
+        for (asset, bytes) in found {
+            writer.put_existing(asset, &bytes)?;
+        }
+        report.cached.push(id.clone());
+        options.observer.job_finished(&id, true);
+        return Ok(None);
     }
     let progress = |done: u64, all: u64| options.observer.progress(&id, done, all);
-    let ctx = JobContext { base_dir, limits, progress: &progress };
+    let ctx = JobContext { base_dir: run.base_dir, limits: run.limits, progress: &progress };
+    let mut made = Vec::new();
     for asset in job.bake(&ctx)? {
-        match &asset.payload {
+        made.push(match &asset.payload {
             BakedPayload::Texture(t) => writer.put_texture(&asset.id, asset.settings, &hash, t)?,
             BakedPayload::Mesh(m) => writer.put_mesh(&asset.id, asset.settings, &hash, m)?,
-        };
+        });
     }
     report.baked.push(id.clone());
     options.observer.job_finished(&id, false);
-    Ok(())
+    Ok(Some((hash, made)))
 }
 
 /// Runs one job against the bundle in `bundle` (created if missing), adding or replacing the
@@ -176,7 +215,8 @@ pub fn run_one_job(job: &Job, bundle: &Path, options: &RunOptions) -> Result<Run
         };
         let mut report = RunReport { bundle: bundle.to_path_buf(), ..Default::default() };
         let limits = InputLimits::default();
-        run_job(&mut writer, job, Path::new(""), &limits, options, (0, 1), &mut report)?;
+        let run = JobRun { base_dir: Path::new(""), limits: &limits, cache: options.cache.as_ref() };
+        run_job(&mut writer, job, &run, options, (0, 1), &mut report)?;
         let summary = writer.commit_waiting(&|lock| options.observer.waiting_for_lock(lock))?;
         report.removed = summary.removed;
         report.manifest_written = summary.manifest_written;
