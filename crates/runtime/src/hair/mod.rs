@@ -1,5 +1,5 @@
 //! Hair strips with anti-aliased deep opacity maps (seed 004): [`HairRenderer`], the WGSL of
-//! [`HAIR_WGSL`], and the CPU reference of both in [`reference`].
+//! [`HAIR_WGSL`], and the CPU reference of both in [`reference`](mod@reference).
 //!
 //! A `strands` asset holds two vertices per strand point; the vertex shader pushes them apart
 //! across the strand so the strip faces whoever looks (the light in the light passes, the camera
