@@ -32,7 +32,11 @@ fn bad_tiles_are_refused_by_file_and_reason() {
     let cases: [(&str, Vec<u8>, &str); 4] = [
         ("odd.hgt", vec![0u8; 9], "2·N² bytes"),
         ("oblong.hgt", vec![0u8; 2 * 6], "2·N² bytes"),
-        ("voids.hgt", [i16::MIN; 4].iter().flat_map(|v| v.to_be_bytes()).collect(), "void"),
+        (
+            "voids.hgt",
+            [i16::MIN; 4].iter().flat_map(|v| v.to_be_bytes()).collect(),
+            "every one of the 4 samples is no-data",
+        ),
         ("one.hgt", vec![0u8; 2], "2·N² bytes"),
     ];
     for (name, bytes, needle) in cases {
@@ -44,7 +48,7 @@ fn bad_tiles_are_refused_by_file_and_reason() {
     // The size limit is checked from the length, before the file is read.
     let path = tile("big.hgt", &[0; 64 * 64]);
     let e = load_samples(&path, &LoadOptions { max_dimension: 32, ..Default::default() }).unwrap_err().to_string();
-    assert!(e.contains("64"), "{e}");
+    assert!(e.contains("(64×64) is 64, above the limit of 32"), "{e}");
     let e = load_samples(
         &tile("chan.hgt", &[1, 2, 3, 4]),
         &LoadOptions { channel: Some("R".into()), ..Default::default() },

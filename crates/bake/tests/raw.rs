@@ -44,5 +44,5 @@ fn bad_raw_maps_are_refused_by_file_and_reason() {
     // The size limit, before reading.
     let big = file("big.r16", vec![0u8; 2 * 64 * 64]);
     let e = load_samples(&big, &LoadOptions { max_dimension: 32, ..Default::default() }).unwrap_err().to_string();
-    assert!(e.contains("64"), "{e}");
+    assert!(e.contains("(64×64) is 64, above the limit of 32"), "{e}");
 }

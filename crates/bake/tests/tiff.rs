@@ -43,7 +43,7 @@ fn tiffs_over_the_limit_or_cut_short_are_refused_by_name() {
     let e = load_samples(&fixture("u16_strips.tif"), &LoadOptions { max_dimension: 16, ..Default::default() })
         .unwrap_err()
         .to_string();
-    assert!(e.contains("u16_strips.tif") && e.contains("20"), "{e}");
+    assert!(e.contains("u16_strips.tif") && e.contains("(20×12) is 20, above the limit of 16"), "{e}");
     let dir = std::env::temp_dir().join(format!("hikage_tiff_{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let cut = dir.join("cut.tif");

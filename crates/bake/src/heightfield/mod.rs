@@ -171,6 +171,28 @@ fn finite(path: &Path, samples: Samples) -> Result<Samples, BakeError> {
     Ok(samples)
 }
 
+/// The no-data rule of every elevation format: samples equal to `no_data` take the lowest
+/// other sample, so a void never casts a shadow it has no terrain for. A grid of voids only is
+/// an error naming the file.
+pub(crate) fn fill_voids(path: &Path, mut values: Vec<f32>, no_data: f32) -> Result<Vec<f32>, BakeError> {
+    let lowest = values.iter().copied().filter(|&v| v != no_data && v.is_finite()).fold(f32::INFINITY, f32::min);
+    if !lowest.is_finite() {
+        return Err(BakeError::input(
+            path,
+            None,
+            format!("every one of the {} samples is no-data ({no_data})", values.len()),
+        ));
+    }
+    values.iter_mut().filter(|v| **v == no_data).for_each(|v| *v = lowest);
+    Ok(values)
+}
+
+/// The side of a square grid of `bytes`-byte samples filling `len` bytes, if it is one.
+pub(crate) fn square_side(len: u64, bytes: u64) -> Option<u64> {
+    let side = (len / bytes).isqrt();
+    (side >= 1 && side * side * bytes == len).then_some(side)
+}
+
 /// Refuses zero or over-limit dimensions; called with the header's size before decoding.
 pub(crate) fn check_dimensions(path: &Path, width: u64, height: u64, max: u32) -> Result<(), BakeError> {
     if width == 0 || height == 0 {

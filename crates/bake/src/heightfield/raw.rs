@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use super::{LoadOptions, Samples, check_dimensions};
+use super::{LoadOptions, Samples, check_dimensions, square_side};
 use crate::error::BakeError;
 
 /// Bytes per sample of a raw heightmap, by its extension; `None` for other files.
@@ -25,14 +25,13 @@ pub(super) fn load(path: &Path, options: &LoadOptions, bytes: u64) -> Result<Sam
     let (w, h) = match options.raw_size {
         Some((w, h)) => (w as u64, h as u64),
         None => {
-            let side = (len / bytes).isqrt();
-            if side * side * bytes != len {
-                return Err(BakeError::input(
+            let side = square_side(len, bytes).ok_or_else(|| {
+                BakeError::input(
                     path,
                     Some("file length".into()),
                     format!("{len} bytes is not a square map of {bytes}-byte samples; give raw_size (W, H)"),
-                ));
-            }
+                )
+            })?;
             (side, side)
         }
     };

@@ -8,7 +8,7 @@ use std::path::Path;
 use tiff::decoder::{Decoder, DecodingResult, Limits};
 use tiff::tags::Tag;
 
-use super::{LoadOptions, Samples, check_dimensions};
+use super::{LoadOptions, Samples, check_dimensions, fill_voids};
 use crate::error::BakeError;
 
 /// Whether `magic` starts a TIFF file (either byte order; BigTIFF too).
@@ -69,18 +69,8 @@ pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Samples, BakeEr
         }
     };
     let values = match no_data {
-        Some(nd) => fill_voids(path, values, nd as f32, (w, h))?,
+        Some(nd) => fill_voids(path, values, nd as f32)?,
         None => values,
     };
     Ok(Samples { width: w, height: h, values, normalized: false, channel: "height".into() })
-}
-
-/// Samples equal to `no_data` replaced by the lowest other sample.
-fn fill_voids(path: &Path, mut values: Vec<f32>, no_data: f32, (w, h): (u32, u32)) -> Result<Vec<f32>, BakeError> {
-    let lowest = values.iter().copied().filter(|&v| v != no_data && v.is_finite()).fold(f32::INFINITY, f32::min);
-    if !lowest.is_finite() {
-        return Err(BakeError::input(path, None, format!("every one of the {w}×{h} samples is no-data ({no_data})")));
-    }
-    values.iter_mut().filter(|v| **v == no_data).for_each(|v| *v = lowest);
-    Ok(values)
 }
