@@ -89,8 +89,7 @@ impl Cache {
         if dir.join(ENTRY_FILE).exists() {
             return Ok(());
         }
-        let nanos = SystemTime::now().duration_since(SystemTime::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0);
-        let tmp = self.dir.join("tmp").join(format!("{hash}.{}.{nanos}", std::process::id()));
+        let tmp = self.scratch(hash);
         std::fs::create_dir_all(&tmp).map_err(|e| BakeError::io(&tmp, e))?;
         let written = (|| {
             for a in assets {
@@ -142,10 +141,16 @@ impl Cache {
         Ok(())
     }
 
+    /// A fresh path in the cache's `tmp/` (same file system as the entries, so renames are
+    /// atomic), unique to this process and moment.
+    fn scratch(&self, name: &str) -> PathBuf {
+        let nanos = SystemTime::now().duration_since(SystemTime::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0);
+        self.dir.join("tmp").join(format!("{name}.{}.{nanos}", std::process::id()))
+    }
+
     /// Removes an entry: renamed out of the way first, so no reader finds half of it.
     fn remove(&self, dir: &Path) -> Result<(), BakeError> {
-        let nanos = SystemTime::now().duration_since(SystemTime::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0);
-        let trash = self.dir.join("tmp").join(format!("evicted.{}.{nanos}", std::process::id()));
+        let trash = self.scratch("evicted");
         if std::fs::rename(dir, &trash).is_ok() {
             std::fs::remove_dir_all(&trash).map_err(|e| BakeError::io(&trash, e))?;
         }

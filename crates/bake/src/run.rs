@@ -14,7 +14,7 @@ use crate::error::BakeError;
 use crate::jobs::{BakedPayload, Baker, Job, JobContext};
 use crate::limits::InputLimits;
 use crate::pipeline::{LoadedPipeline, Pipeline};
-use crate::shard::{SHARD_FILE, Shard, ShardRecord};
+use crate::shard::{Shard, ShardRecord};
 
 /// The cache's size bound when a pipeline names a cache directory: 20 GiB.
 pub const DEFAULT_CACHE_BYTES: u64 = 20 << 30;
@@ -134,12 +134,7 @@ pub fn run_loaded(loaded: &LoadedPipeline, options: &RunOptions) -> Result<RunRe
     // A partial bundle says which pipeline and split it is; a whole one says nothing.
     match options.shard {
         Some(shard) => ShardRecord::new(&loaded.path, shard)?.write(&out)?,
-        None => {
-            let record = out.join(SHARD_FILE);
-            if record.exists() {
-                std::fs::remove_file(&record).map_err(|e| BakeError::io(&record, e))?;
-            }
-        }
+        None => ShardRecord::clear(&out)?,
     }
     Ok(report)
 }

@@ -85,6 +85,16 @@ impl ShardRecord {
         std::fs::rename(&tmp, &path).map_err(|e| BakeError::io(&path, e))
     }
 
+    /// Removes the record of the bundle in `dir`, if any: a whole bundle (baked without a shard,
+    /// or merged) must not pass for a part.
+    pub fn clear(dir: &Path) -> Result<(), BakeError> {
+        let path = dir.join(SHARD_FILE);
+        match std::fs::remove_file(&path) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(BakeError::io(&path, e)),
+            _ => Ok(()),
+        }
+    }
+
     /// Reads the record of the partial bundle in `dir`.
     pub fn read(dir: &Path) -> Result<ShardRecord, BakeError> {
         let path = dir.join(SHARD_FILE);
@@ -164,10 +174,6 @@ pub fn merge(out: &Path, parts: &[PathBuf]) -> Result<MergeReport, BakeError> {
         }
     }
     writer.commit()?;
-    // A merged bundle is whole: a record left from an earlier partial bake would mislead a merge.
-    let stale = out.join(SHARD_FILE);
-    if stale.exists() {
-        std::fs::remove_file(&stale).map_err(|e| BakeError::io(&stale, e))?;
-    }
+    ShardRecord::clear(out)?;
     Ok(MergeReport { assets: taken.len(), parts: parts.to_vec() })
 }

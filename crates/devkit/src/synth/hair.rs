@@ -14,16 +14,7 @@ const HEAD: [f32; 3] = [8.0, 10.5, 9.5];
 /// the tip. Deterministic in `seed`.
 pub fn hair(count: u32, points: u16, seed: u32) -> Strands {
     let n = points as usize;
-    let mut out = Strands {
-        segments: vec![points - 1; count as usize],
-        points: Vec::with_capacity(count as usize * n),
-        thickness: Some(Vec::with_capacity(count as usize * n)),
-        transparency: Some(Vec::with_capacity(count as usize * n)),
-        color: None,
-        default_thickness: 0.016,
-        default_transparency: 1.0 - 0.366,
-        default_color: [0.35, 0.22, 0.12],
-    };
+    let mut out = empty(count, points);
     let mut s = 0u32;
     let mut attempt = 0i32;
     while s < count {
@@ -89,16 +80,7 @@ fn push_out(p: &mut [f32; 3]) {
 /// opacities as [`hair`]'s (0.016 cm at 0.366, varied per strand). Deterministic in `seed`.
 pub fn combed(count: u32, points: u16, seed: u32) -> Strands {
     let n = points as usize;
-    let mut out = Strands {
-        segments: vec![points - 1; count as usize],
-        points: Vec::with_capacity(count as usize * n),
-        thickness: Some(Vec::with_capacity(count as usize * n)),
-        transparency: Some(Vec::with_capacity(count as usize * n)),
-        color: None,
-        default_thickness: 0.016,
-        default_transparency: 1.0 - 0.366,
-        default_color: [0.35, 0.22, 0.12],
-    };
+    let mut out = empty(count, points);
     for s in 0..count {
         let r = |k: u32| hash01(s as i32, k as i32, seed);
         // Around the back of the head: angle from −90° to +90° (z < 0 is the back).
@@ -117,4 +99,20 @@ pub fn combed(count: u32, points: u16, seed: u32) -> Strands {
         }
     }
     out
+}
+
+/// `count` strands of `points` points with room for them, and the defaults of the generated
+/// hair: 0.016 cm strands at opacity 0.366, brown.
+fn empty(count: u32, points: u16) -> Strands {
+    let total = count as usize * points as usize;
+    Strands {
+        segments: vec![points - 1; count as usize],
+        points: Vec::with_capacity(total),
+        thickness: Some(Vec::with_capacity(total)),
+        transparency: Some(Vec::with_capacity(total)),
+        color: None,
+        default_thickness: 0.016,
+        default_transparency: 1.0 - 0.366,
+        default_color: [0.35, 0.22, 0.12],
+    }
 }
