@@ -7,7 +7,8 @@
 use hikage_bundle::EdgeMode;
 
 use super::encode::{self, HorizonFormat, rg8};
-use super::grid::{Grid, Orientation};
+use super::grid::{Frame, Grid, Orientation};
+use super::near::split;
 use super::steps::Steps;
 use super::{HorizonParams, near, sweep};
 
@@ -29,7 +30,10 @@ pub(super) struct Direction<'a> {
     m: f64,
     format: HorizonFormat,
     distance_scale: f32,
-    wrap: bool,
+    /// Where the grid lies in the map.
+    frame: Frame,
+    /// Rays stop at the map's edges (clamp) rather than continue on the torus.
+    clamped: bool,
     /// Reach in columns (real for traces, whole columns for the sweep); `None`: to the edge.
     reach: Option<f64>,
     /// Columns traced exactly by the near pass.
@@ -39,14 +43,20 @@ pub(super) struct Direction<'a> {
     /// The reach as a number (infinite when unbounded).
     end: f64,
     steps: Steps,
+    /// Per grid column `c`, where a sweep line through row 0 of map column `c + col0` is: whole
+    /// rows and the fraction (`split(m · (c + col0))`); the step table's own columns when the
+    /// frame starts at column 0.
+    line_rows: Option<(Vec<i32>, Vec<f32>)>,
     texel_bytes: usize,
 }
 
 impl<'a> Direction<'a> {
-    /// The direction of slope `m` (rows per column) on grid `g`, whose texels go into an output
-    /// slice of `size` texels in `format`.
+    /// The direction of slope `m` (rows per column) on grid `g`, placed in the map by `frame`,
+    /// whose texels go into an output slice of `size` texels in `format`.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn new(
         g: &'a Grid,
+        frame: Frame,
         orientation: Orientation,
         size: (usize, usize),
         m: f64,
@@ -54,16 +64,24 @@ impl<'a> Direction<'a> {
         distance_scale: f32,
     ) -> Direction<'a> {
         let step_len = (g.sx * g.sx + (m * g.sy).powi(2)).sqrt();
+        let map_w = frame.map_w as f64;
         // Rays on a torus are followed for at most 4 map lengths along their major axis.
-        let cap = 4.0 * g.w as f64;
         let reach = match (params.max_distance, params.edge) {
-            (Some(md), EdgeMode::Wrap) => Some((md as f64 / step_len).min(cap)),
-            (Some(md), EdgeMode::Clamp) => Some((md as f64 / step_len).min(g.w as f64)),
-            (None, EdgeMode::Wrap) => Some(g.w as f64),
+            (Some(md), EdgeMode::Wrap) => Some((md as f64 / step_len).min(4.0 * map_w)),
+            (Some(md), EdgeMode::Clamp) => Some((md as f64 / step_len).min(map_w)),
+            (None, EdgeMode::Wrap) => Some(map_w),
             (None, EdgeMode::Clamp) => None,
         };
         let near_cols = params.near_field as usize;
         let cols = g.w + reach.map_or(0, |r| r.ceil() as usize) + 1;
+        let line_rows = (frame.col0 != 0).then(|| {
+            (0..=cols)
+                .map(|c| {
+                    let (r, f) = split(m * (c as i64 + frame.col0) as f64);
+                    (r as i32, f)
+                })
+                .unzip()
+        });
         Direction {
             g,
             orientation,
@@ -71,12 +89,14 @@ impl<'a> Direction<'a> {
             m,
             format: params.format,
             distance_scale,
-            wrap: params.edge == EdgeMode::Wrap,
+            frame,
+            clamped: params.edge == EdgeMode::Clamp,
             reach,
             near_cols,
             near_reach: reach.map_or(near_cols as f64, |r| r.min(near_cols as f64)),
             end: reach.unwrap_or(f64::INFINITY),
             steps: Steps::new(m, step_len, cols, g.stride),
+            line_rows,
             texel_bytes: params.format.texture_format().texel_bytes(),
         }
     }
@@ -98,9 +118,10 @@ impl<'a> Direction<'a> {
     /// Columns until a clamped ray from `row` leaves the map through a row edge.
     #[inline(always)]
     fn exit(&self, row: usize) -> f64 {
-        match (self.wrap, self.m) {
-            (false, m) if m > 0.0 => (self.g.h - 1 - row) as f64 / m,
-            (false, m) if m < 0.0 => row as f64 / -m,
+        let row = row as i64 + self.frame.row0;
+        match (self.clamped, self.m) {
+            (true, m) if m > 0.0 => (self.frame.map_h as i64 - 1 - row) as f64 / m,
+            (true, m) if m < 0.0 => row as f64 / -m,
             _ => f64::INFINITY,
         }
     }
@@ -109,13 +130,13 @@ impl<'a> Direction<'a> {
     /// (and before the map's right edge): it is traced exactly instead of swept.
     #[inline(always)]
     fn traced(&self, exit: f64, col: usize) -> bool {
-        exit <= EXIT_TRACE && exit < (self.g.w - 1 - col) as f64
+        exit <= EXIT_TRACE && exit < (self.frame.map_w as i64 - 1 - (col as i64 + self.frame.col0)) as f64
     }
 
     /// `(tan β, t)` of texel (`col`, `row`)'s own ray over columns `(lo, hi]`, exactly.
     #[inline(always)]
     fn trace(&self, row: usize, col: usize, lo: f64, hi: f64) -> Option<(f32, f32)> {
-        self.steps.trace(self.g, self.wrap, row, col, lo, hi)
+        self.steps.trace(self.g, self.frame.torus, row, col, lo, hi)
     }
 
     /// The near field of every texel, and the exact traces that stand in for the far field,
@@ -177,11 +198,19 @@ impl<'a> Direction<'a> {
     fn far_pass(&self, out: &mut [u8]) {
         let (g, texel_bytes, format, distance_scale) = (self.g, self.texel_bytes, self.format, self.distance_scale);
         let (near_cols, near_f, end) = (self.near_cols, self.near_cols as f64, self.end);
+        let (rows, fracs) = match &self.line_rows {
+            Some((r, f)) => (r.as_slice(), f.as_slice()),
+            None => (self.steps.col_r.as_slice(), self.steps.col_f.as_slice()),
+        };
         let line = sweep::Line {
-            steps: &self.steps,
+            m: self.m,
+            rows,
+            fracs,
             near: near_cols,
             reach: self.reach.map(|r| (r + 1e-9).floor() as usize),
-            wrap: self.wrap,
+            wrap: self.frame.torus,
+            col0: self.frame.col0,
+            restart: usize::try_from(self.frame.map_w as i64 - 1 - self.frame.col0).unwrap_or(usize::MAX),
         };
         // Axis and diagonal directions: every crossing of a ray is a column crossing and the line
         // through a texel is its ray, so the hull's tangent is already the exact answer.
@@ -211,7 +240,7 @@ impl<'a> Direction<'a> {
                 let window = |lo: u32, hi: u32| {
                     let lo = (lo as usize).saturating_sub(2).max(near_cols);
                     let hi = (hi as usize + 1).min(end_cols);
-                    self.steps.window(g, self.wrap, row, col, lo, hi)
+                    self.steps.window(g, self.frame.torus, row, col, lo, hi)
                 };
                 if hi - lo <= 3 {
                     steeper(&mut best, window(lo, hi));

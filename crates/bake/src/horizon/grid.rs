@@ -63,6 +63,38 @@ fn returnable(len: usize) -> Vec<f32> {
     Vec::with_capacity(if len >= FLOOR / 64 { len.max(FLOOR) } else { len })
 }
 
+/// Where a grid lies in the whole map, in the grid's canonical orientation: a whole map is its
+/// own frame; a tile's window of heights is a part of it. Everything a bake decides by position
+/// (where rays leave a clamped map, how far a ray may go, which sweep line passes where) follows
+/// the frame, so a window gives the same texels as the whole map where its halo covers the rays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Frame {
+    /// Map column and row of the grid's texel (0, 0); negative or past the map on a torus.
+    pub col0: i64,
+    pub row0: i64,
+    /// The whole map's columns and rows.
+    pub map_w: usize,
+    pub map_h: usize,
+    /// Reads wrap around the grid (a whole map on a torus); a window reads nothing past itself.
+    pub torus: bool,
+}
+
+impl Frame {
+    /// A whole `w`×`h` canonical grid.
+    pub fn whole(w: usize, h: usize, torus: bool) -> Frame {
+        Frame { col0: 0, row0: 0, map_w: w, map_h: h, torus }
+    }
+
+    /// The frame, in orientation `o`, of a `window` = (column, row, width, height) of a `map`
+    /// = (width, height) in the original layout.
+    pub fn window(o: Orientation, map: (usize, usize), window: (i64, i64, usize, usize)) -> Frame {
+        let (x, y, w, h) = window;
+        let (cx, cw, mw, ry, mh) = if o.transpose { (y, h, map.1, x, map.0) } else { (x, w, map.0, y, map.1) };
+        let col0 = if o.flip { mw as i64 - (cx + cw as i64) } else { cx };
+        Frame { col0, row0: ry, map_w: mw, map_h: mh, torus: false }
+    }
+}
+
 /// How a canonical grid maps to the original: `transpose` swaps `u` and `v`, then `flip`
 /// mirrors the (new) columns.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

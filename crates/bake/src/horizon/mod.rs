@@ -36,6 +36,7 @@ mod params;
 mod schedule;
 mod steps;
 mod sweep;
+mod tile;
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -44,14 +45,15 @@ use rayon::prelude::*;
 
 use crate::heightfield::Heightfield;
 use direction::Direction;
-use grid::Orientation;
+use grid::{Frame, Orientation};
 
 pub use ao::ambient_occlusion;
 pub use encode::{HorizonFormat, OPEN_SKY_SLOPE, decode};
 pub use params::{DEFAULT_NEAR_FIELD, HorizonParams};
+pub use tile::{TileWindow, bake_tile, halo, window_of};
 
 /// Version of the horizon baker; part of the input hash.
-pub const ALGORITHM_VERSION: u32 = 3;
+pub const ALGORITHM_VERSION: u32 = 4;
 
 /// Rows per band of direction 0, baked band by band from the input.
 const ROW_BAND: usize = 64;
@@ -74,15 +76,8 @@ pub fn bake(
     params.check()?;
     let (w, h, d) = (hf.width as usize, hf.height as usize, params.directions as usize);
     let (sx, sy) = (hf.texel_size.0 as f64, hf.texel_size.1 as f64);
-    let format = params.format;
-    let texel_bytes = format.texture_format().texel_bytes();
-
-    // The largest distance any horizon can have, for the 8-bit distance scale.
-    let diag = ((w as f64 * sx).powi(2) + (h as f64 * sy).powi(2)).sqrt();
-    let distance_scale = match format {
-        HorizonFormat::Rg8Unorm => params.max_distance.map_or(diag * 2.0, |m| m as f64).max(1e-6) as f32,
-        _ => 1.0,
-    };
+    let texel_bytes = params.format.texture_format().texel_bytes();
+    let distance_scale = distance_scale(params, (w, h), hf.texel_size);
 
     // Zeroed pages are not resident until written, so the output grows as it is filled.
     let mut bytes = vec![0u8; w * h * d * texel_bytes];
@@ -100,7 +95,8 @@ pub fn bake(
     let build = |g: usize| Orientation::ALL[g].grid((w, h), &hf.samples, hf.height_scale, (sx, sy), pad, wrap);
     schedule::run(work, &build, &|g, (k, slice): (usize, &mut [u8]), grid| {
         let (_, m) = Orientation::for_azimuth(std::f64::consts::TAU * k as f64 / d as f64);
-        Direction::new(grid, Orientation::ALL[g], (w, h), m, params, distance_scale).bake(slice);
+        let frame = Frame::whole(grid.w, grid.h, wrap);
+        Direction::new(grid, frame, Orientation::ALL[g], (w, h), m, params, distance_scale).bake(slice);
         progress(done.fetch_add(1, Ordering::Relaxed) + 1, d as u64);
     });
     // Direction 0 (φ = 0) comes last, after the last whole-map copy is gone: its rays are the
@@ -113,19 +109,35 @@ pub fn bake(
         let rows = out.len() / (w * texel_bytes);
         let samples = &hf.samples[b * band * w..(b * band + rows) * w];
         let grid = orientation.grid((w, rows), samples, hf.height_scale, (sx, sy), pad, wrap);
-        Direction::new(&grid, orientation, (w, rows), m, params, distance_scale).bake(out);
+        let frame = Frame::whole(w, rows, wrap);
+        Direction::new(&grid, frame, orientation, (w, rows), m, params, distance_scale).bake(out);
     });
     progress(done.fetch_add(1, Ordering::Relaxed) + 1, d as u64);
-    let desc = TextureDesc {
-        format: format.texture_format(),
+    let desc = TextureDesc { width: hf.width, height: hf.height, ..texture_desc(params) };
+    Ok(HorizonTexture { texture: TextureData { desc, levels: vec![bytes] }, distance_scale })
+}
+
+/// For `Rg8Unorm`, the distance a stored 1 stands for: the largest any horizon of a `map`-sized
+/// field can have; 1 for float formats.
+fn distance_scale(params: &HorizonParams, (w, h): (usize, usize), (sx, sy): (f32, f32)) -> f32 {
+    let diag = ((w as f64 * sx as f64).powi(2) + (h as f64 * sy as f64).powi(2)).sqrt();
+    match params.format {
+        HorizonFormat::Rg8Unorm => params.max_distance.map_or(diag * 2.0, |m| m as f64).max(1e-6) as f32,
+        _ => 1.0,
+    }
+}
+
+/// The description of a horizon texture of `params`, its width and height 0 for the caller.
+fn texture_desc(params: &HorizonParams) -> TextureDesc {
+    TextureDesc {
+        format: params.format.texture_format(),
         dimension: TextureDimension::D3,
-        width: hf.width,
-        height: hf.height,
+        width: 0,
+        height: 0,
         depth: params.directions,
         layers: 1,
         levels: 1,
         supercompression: Supercompression::None,
         channels: vec!["slope".into(), "distance".into()],
-    };
-    Ok(HorizonTexture { texture: TextureData { desc, levels: vec![bytes] }, distance_scale })
+    }
 }

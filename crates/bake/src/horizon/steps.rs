@@ -16,8 +16,6 @@ const COL_SLOTS: usize = 3;
 const ROW_SLOTS: usize = 2;
 
 pub(crate) struct Steps {
-    /// Rows per column step.
-    pub m: f64,
     /// World units per column step.
     pub step_len: f64,
     /// Column crossing `du`: whole rows below (`floor(m·du)`) and the fraction to the next row.
@@ -89,7 +87,7 @@ impl Steps {
         // The sentinel an empty row slot reads: the texel itself, never in a range.
         let mut between = between;
         between.push(RowCrossing { off: 0, rows: 0, c: 0, f: 0.0, du: 1.0, du64: f64::INFINITY });
-        Steps { m, step_len, col_r, col_f, stride, col_off, between, col_rows }
+        Steps { step_len, col_r, col_f, stride, col_off, between, col_rows }
     }
 
     /// Traces the ray from canonical texel (`row`, `col`) exactly over column displacements

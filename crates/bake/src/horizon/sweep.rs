@@ -23,18 +23,32 @@
 use super::grid::Grid;
 pub(crate) use super::hull::Hit;
 use super::hull::{PrefixHull, Pt, SuffixHull};
-use super::steps::{Steps, wrap_index};
+use super::steps::wrap_index;
 
 /// Parameters of one canonical direction.
+///
+/// The sweep is laid out in map columns, not grid columns: line `k` passes row `k` of the grid
+/// at map column 0, the blocks of a finite reach start at multiples of the block length in map
+/// columns, and every walk along a hull starts afresh where the whole map's sweep starts, at
+/// each block and on each line. So a texel meets the same lines, hulls and walks whether its
+/// grid is the whole map or a window of it (a tile with its halo), and gets the same bytes.
 pub(crate) struct Line<'a> {
-    /// Rows per column step, and the crossing tables (covering `w + reach` columns).
-    pub steps: &'a Steps,
+    /// Rows per column step.
+    pub m: f64,
+    /// Per grid column `c` (covering `w + reach`), where line 0 is: whole rows and the fraction
+    /// to the next row, `split(m · (c + col0))`.
+    pub rows: &'a [i32],
+    pub fracs: &'a [f32],
     /// Columns covered exactly by the near field.
     pub near: usize,
     /// Largest column displacement a horizon may have (`None`: to the map edge).
     pub reach: Option<usize>,
-    /// Rays continue on the torus.
+    /// Rays continue on the torus (the grid is the whole map).
     pub wrap: bool,
+    /// Map column of grid column 0.
+    pub col0: i64,
+    /// Grid column of the map's last column, where the whole map's sweep starts.
+    pub restart: usize,
 }
 
 /// Runs the far field of one direction. `finish(row, col, [below, above])` is called once per
@@ -58,9 +72,10 @@ pub(crate) fn far_field(
             sweeper.run(g, line, k, [k < g.h as i64 - 1, k >= 0], finish, prefetch);
         }
     } else {
-        let span = line.steps.m * (g.w as f64 - 1.0);
-        let lo = (-span.max(0.0)).floor() as i64 - 1;
-        let hi = g.h as i64 + (-span).max(0.0).ceil() as i64 + 1;
+        // Every line that passes within a row of the grid somewhere along it.
+        let (first, last) = (line.rows[0] as i64, line.rows[g.w - 1] as i64);
+        let lo = -first.max(last) - 2;
+        let hi = g.h as i64 - first.min(last) + 1;
         for k in lo..=hi {
             sweeper.run(g, line, k, [true, true], finish, prefetch);
         }
@@ -102,8 +117,8 @@ impl Sweeper {
     /// The sample of line `k` at (unwrapped) column `c`, if it lies on the map.
     #[inline(always)]
     fn point(g: &Grid, line: &Line, k: i64, c: usize) -> Option<Pt> {
-        let r = k + line.steps.col_r[c] as i64;
-        let f = line.steps.col_f[c];
+        let r = k + line.rows[c] as i64;
+        let f = line.fracs[c];
         let (r0, r1, col) = if line.wrap {
             let h = g.h as i64;
             (wrap_index(r, h), wrap_index(r + 1, h), wrap_index(c as i64, g.w as i64))
@@ -148,12 +163,13 @@ impl Sweeper {
         let (w, near) = (g.w, line.near);
         self.suffix.clear();
         self.prefix.clear();
+        self.hints = [[0; 2]; 2];
         match line.reach {
             None => {
                 // Clamped: only the columns where the line is near the map matter. Past `i_hi`
                 // the line is half a row or more off the map, so it has no samples there and
                 // the hull starts empty.
-                let Some((i_lo, i_hi)) = Self::columns_near_map(g, line.steps.m, k) else { return };
+                let Some((i_lo, i_hi)) = Self::columns_near_map(g, line.m, k) else { return };
                 debug_assert!((i_hi + 1..w).all(|c| Self::point(g, line, k, c).is_none()));
                 for i in (i_lo..=i_hi).rev() {
                     let a = i + near + 1;
@@ -167,26 +183,34 @@ impl Sweeper {
                 }
             }
             Some(reach) => {
-                let block = reach - near;
-                let start = |b: usize| b * block;
+                // Blocks start at multiples of `block` in map columns; `start(b)` is block `b`'s
+                // first grid column (negative for blocks left of the grid).
+                let block = (reach - near) as i64;
+                let start = |b: i64| b * block - line.col0;
                 let a0 = w + near;
-                let mut b = a0 / block;
-                for c in (a0..start(b + 1)).rev() {
+                let mut b = (a0 as i64 + line.col0).div_euclid(block);
+                let next = start(b + 1) as usize;
+                for c in (a0..next).rev() {
                     if let Some(p) = Self::point(g, line, k, c) {
                         self.suffix.push_front(p);
                     }
                 }
-                for c in start(b + 1)..start(b + 1) + (a0 - start(b)) {
+                for c in next..next + (a0 as i64 - start(b)) as usize {
                     self.prefix.push_back(Self::point(g, line, k, c));
                 }
                 for i in (0..w).rev() {
                     let a = i + near + 1;
+                    if i == line.restart {
+                        self.hints = [[0; 2]; 2];
+                    }
                     if a != a0 {
-                        if a < start(b) {
+                        if (a as i64) < start(b) {
                             b -= 1;
                             self.suffix.clear();
                             self.prefix.clear();
-                            for c in start(b + 1)..start(b + 1) + block - 1 {
+                            self.hints = [[0; 2]; 2];
+                            let next = start(b + 1) as usize;
+                            for c in next..next + block as usize - 1 {
                                 self.prefix.push_back(Self::point(g, line, k, c));
                             }
                         } else {
@@ -207,7 +231,7 @@ impl Sweeper {
     #[inline(always)]
     fn ahead(g: &Grid, line: &Line, k: i64, i: usize, prefetch: &impl Fn(usize, usize)) {
         let Some(c) = i.checked_sub(AHEAD) else { return };
-        if let Some(j) = Self::map_row(g, line, k + line.steps.col_r[c] as i64) {
+        if let Some(j) = Self::map_row(g, line, k + line.rows[c] as i64) {
             prefetch(j, c);
         }
     }
@@ -232,8 +256,8 @@ impl Sweeper {
         slots: [bool; 2],
         finish: &mut impl FnMut(usize, usize, [Option<Hit>; 2]),
     ) {
-        let on_line = line.steps.col_f[i] == 0.0;
-        let ja = k + line.steps.col_r[i] as i64 + (!on_line) as i64;
+        let on_line = line.fracs[i] == 0.0;
+        let ja = k + line.rows[i] as i64 + (!on_line) as i64;
         for (j, slot) in [(ja - 1, 1usize), (ja, 0usize)] {
             if !slots[slot] || (slot == 1 && on_line) {
                 continue;

@@ -1,0 +1,166 @@
+//! Tiled bakes: one tile of the horizon texture from a window of the heights around it.
+//!
+//! With a `max_distance`, no ray of a texel reads heights farther than `max_distance` (plus a
+//! texel for interpolation), so a tile needs only its own texels and a halo of that reach:
+//! its memory is bounded by the tile and its halo, not by the map. The bake of a window places
+//! it in the map ([`Frame`]) so that every decision the whole-map bake makes by position is made
+//! the same way; a tile's texels are then byte for byte the whole-map bake's.
+//!
+//! Without `max_distance` a ray may run to the map's edge (or around a torus), so every tile's
+//! halo would be the whole map: tiling is refused rather than silently reading everything.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use hikage_bundle::{EdgeMode, TextureData, TextureDesc};
+
+use super::direction::Direction;
+use super::grid::{Frame, Orientation};
+use super::{HorizonParams, HorizonTexture, schedule, texture_desc};
+use crate::heightfield::Heightfield;
+
+/// Where a tile lies in the whole map, and the window of heights its bake reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TileWindow {
+    /// The whole map's width and height in texels.
+    pub map: (u32, u32),
+    /// The tile's first column and row in the map, and its width and height.
+    pub tile: (u32, u32, u32, u32),
+    /// The window's first column and row in the map and its width and height. On a torus
+    /// (`EdgeMode::Wrap`) it may start left of or above the map, or end past it: its texels are
+    /// then read around the torus. A clamped map's window stays inside the map.
+    pub window: (i64, i64, u32, u32),
+}
+
+impl TileWindow {
+    /// The window of the tile at `tile` = (column, row, width, height) of a `map`: the tile
+    /// grown by `halo` = (columns, rows) on every side, kept inside a clamped map.
+    pub fn new(map: (u32, u32), tile: (u32, u32, u32, u32), halo: (u32, u32), edge: EdgeMode) -> TileWindow {
+        let (x, y, w, h) = tile;
+        let axis = |start: u32, len: u32, halo: u32, size: u32| -> (i64, u32) {
+            let (lo, hi) = (start as i64 - halo as i64, (start + len) as i64 + halo as i64);
+            let (lo, hi) = match edge {
+                EdgeMode::Wrap => (lo, hi),
+                EdgeMode::Clamp => (lo.max(0), hi.min(size as i64)),
+            };
+            (lo, (hi - lo) as u32)
+        };
+        let (wx, ww) = axis(x, w, halo.0, map.0);
+        let (wy, wh) = axis(y, h, halo.1, map.1);
+        TileWindow { map, tile, window: (wx, wy, ww, wh) }
+    }
+
+    /// The map texel (column, row) that window texel (`x`, `y`) reads: wrapped into the map.
+    pub fn source(&self, x: u32, y: u32) -> (u32, u32) {
+        let wrap = |v: i64, n: u32| v.rem_euclid(n as i64) as u32;
+        (wrap(self.window.0 + x as i64, self.map.0), wrap(self.window.1 + y as i64, self.map.1))
+    }
+}
+
+/// The halo a tile needs on each side, in texels (columns, rows): every texel a ray within
+/// `max_distance` reads, with a texel each way for interpolation and for the sweep lines on
+/// either side of a ray. An error when the bake has no `max_distance`.
+pub fn halo(params: &HorizonParams, texel_size: (f32, f32)) -> Result<(u32, u32), String> {
+    let md = params.max_distance.ok_or_else(|| {
+        "a tiled horizon bake needs max_distance: without it a ray may cross the whole map, so \
+         every tile would read all of it; set max_distance (world units) or bake the map whole"
+            .to_string()
+    })?;
+    let texels = |s: f32| -> Result<u32, String> {
+        let n = (md as f64 / s as f64).ceil() + 3.0;
+        if n > u32::MAX as f64 / 4.0 {
+            return Err(format!("max_distance {md} is {n} texels of {s}: too far to tile"));
+        }
+        Ok(n as u32)
+    };
+    Ok((texels(texel_size.0)?, texels(texel_size.1)?))
+}
+
+/// Bakes one tile of the horizon texture of a map from `window`, the heights of
+/// `place.window` with the map's world units. The result is the tile's texels only, equal byte
+/// for byte to the same region of [`super::bake`] of the whole map. `progress(done, total)` is
+/// called once per direction.
+pub fn bake_tile(
+    window: &Heightfield,
+    place: &TileWindow,
+    params: &HorizonParams,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<HorizonTexture, String> {
+    params.check()?;
+    let halo = halo(params, window.texel_size)?;
+    let (wx, wy, ww, wh) = place.window;
+    let (tx, ty, tw, th) = place.tile;
+    if (window.width, window.height) != (ww, wh) {
+        return Err(format!("the window holds {}×{} heights, expected {ww}×{wh}", window.width, window.height));
+    }
+    let inside = |t: u32, len: u32, w: i64, wlen: u32, halo: u32, map: u32| {
+        let (t, end) = (t as i64, t as i64 + len as i64);
+        len > 0
+            && end <= map as i64
+            && w <= t
+            && t + len as i64 <= w + wlen as i64
+            && (w <= t - halo as i64 || (params.edge == EdgeMode::Clamp && w == 0))
+            && (end + halo as i64 <= w + wlen as i64
+                || (params.edge == EdgeMode::Clamp && w + wlen as i64 == map as i64))
+    };
+    if !inside(tx, tw, wx, ww, halo.0, place.map.0) || !inside(ty, th, wy, wh, halo.1, place.map.1) {
+        return Err(format!(
+            "tile {:?} of a {}×{} map needs its window to cover it and a halo of {halo:?} texels, found window {:?}",
+            place.tile, place.map.0, place.map.1, place.window
+        ));
+    }
+    let (map, size) = ((place.map.0 as usize, place.map.1 as usize), (ww as usize, wh as usize));
+    let d = params.directions as usize;
+    let format = params.format;
+    let texel_bytes = format.texture_format().texel_bytes();
+    let distance_scale = super::distance_scale(params, map, window.texel_size);
+    let (sx, sy) = (window.texel_size.0 as f64, window.texel_size.1 as f64);
+    let pad = params.near_field as usize + 2;
+
+    let tile_len = tw as usize * th as usize * texel_bytes;
+    let mut bytes = vec![0u8; tile_len * d];
+    let mut work: Vec<Vec<(usize, &mut [u8])>> = Orientation::ALL.iter().map(|_| Vec::new()).collect();
+    let for_azimuth = |k: usize| Orientation::for_azimuth(std::f64::consts::TAU * k as f64 / d as f64);
+    for (k, slice) in bytes.chunks_mut(tile_len).enumerate() {
+        work[for_azimuth(k).0.index()].push((k, slice));
+    }
+    let build = |g: usize| Orientation::ALL[g].grid(size, &window.samples, window.height_scale, (sx, sy), pad, false);
+    let done = AtomicU64::new(0);
+    let (ox, oy) = ((tx as i64 - wx) as usize, (ty as i64 - wy) as usize);
+    schedule::run(work, &build, &|_, (k, slice): (usize, &mut [u8]), grid| {
+        let (orientation, m) = for_azimuth(k);
+        let frame = Frame::window(orientation, map, (wx, wy, size.0, size.1));
+        let mut whole = vec![0u8; size.0 * size.1 * texel_bytes];
+        Direction::new(grid, frame, orientation, size, m, params, distance_scale).bake(&mut whole);
+        let row_bytes = tw as usize * texel_bytes;
+        for (r, out) in slice.chunks_exact_mut(row_bytes).enumerate() {
+            let from = ((oy + r) * size.0 + ox) * texel_bytes;
+            out.copy_from_slice(&whole[from..from + row_bytes]);
+        }
+        progress(done.fetch_add(1, Ordering::Relaxed) + 1, d as u64);
+    });
+    let desc = TextureDesc { width: tw, height: th, ..texture_desc(params) };
+    Ok(HorizonTexture { texture: TextureData { desc, levels: vec![bytes] }, distance_scale })
+}
+
+/// Reads the window of `place` from a whole map's samples: the samples a tile's bake gets,
+/// with the map's world units.
+pub fn window_of(map: &Heightfield, place: &TileWindow) -> Heightfield {
+    let (_, _, ww, wh) = place.window;
+    let mut samples = Vec::with_capacity(ww as usize * wh as usize);
+    for y in 0..wh {
+        for x in 0..ww {
+            let (u, v) = place.source(x, y);
+            samples.push(map.sample(u, v));
+        }
+    }
+    Heightfield {
+        width: ww,
+        height: wh,
+        samples,
+        texel_size: map.texel_size,
+        height_scale: map.height_scale,
+        height_offset: map.height_offset,
+        normalized: map.normalized,
+        source_channel: map.source_channel.clone(),
+    }
+}
