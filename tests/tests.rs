@@ -14,3 +14,4 @@ mod gpu_hair;
 mod gpu_horizon;
 mod gpu_relief;
 mod shard;
+mod tiles;

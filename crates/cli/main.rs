@@ -88,7 +88,8 @@ enum Command {
         format: OutputFormat,
     },
     /// Bake horizon and distance maps of one heightfield into BUNDLE (created, or its assets
-    /// `<id>.height`, `<id>.horizon`, `<id>.ao` added or replaced).
+    /// `<id>.height`, `<id>.horizon`, `<id>.ao` added or replaced; with --tile, one of each per
+    /// tile, `<id>.horizon.<tx>_<ty>`).
     #[command(after_help = EXIT_CODES)]
     Horizon {
         #[command(flatten)]

@@ -20,9 +20,42 @@ pub(crate) fn job_hash(job: &dyn Baker, base_dir: &Path, limits: &InputLimits) -
     h.update(&(settings.len() as u64).to_le_bytes());
     h.update(settings.as_bytes());
     for path in job.inputs(base_dir) {
-        let bytes = std::fs::read(&path).map_err(|e| BakeError::io(&path, e))?;
-        h.update(&(bytes.len() as u64).to_le_bytes());
-        h.update(&bytes);
+        let len = std::fs::metadata(&path).map_err(|e| BakeError::io(&path, e))?.len();
+        h.update(&len.to_le_bytes());
+        stream(&path, len, &mut h)?;
     }
     Ok(h.finalize().to_hex().to_string())
+}
+
+/// The BLAKE3 of a file's bytes, read a block at a time (inputs may be larger than memory).
+pub(crate) fn file_digest(path: &Path) -> Result<String, BakeError> {
+    let len = std::fs::metadata(path).map_err(|e| BakeError::io(path, e))?.len();
+    let mut h = blake3::Hasher::new();
+    stream(path, len, &mut h)?;
+    Ok(h.finalize().to_hex().to_string())
+}
+
+/// Feeds the `len` bytes of the file at `path` to `h`; an error if the file is not `len` long
+/// by the time it has been read (it changed while being hashed).
+fn stream(path: &Path, len: u64, h: &mut blake3::Hasher) -> Result<(), BakeError> {
+    use std::io::Read;
+    let mut file = std::fs::File::open(path).map_err(|e| BakeError::io(path, e))?;
+    let mut buf = vec![0u8; 1 << 20];
+    let mut read = 0u64;
+    loop {
+        let n = file.read(&mut buf).map_err(|e| BakeError::io(path, e))?;
+        if n == 0 {
+            break;
+        }
+        h.update(&buf[..n]);
+        read += n as u64;
+    }
+    if read != len {
+        return Err(BakeError::input(
+            path,
+            None,
+            format!("the file changed while it was read ({len} bytes, then {read})"),
+        ));
+    }
+    Ok(())
 }

@@ -11,7 +11,7 @@ use hikage_bundle::{Asset, BundleWriter, WriteMode};
 
 use crate::cache::Cache;
 use crate::error::BakeError;
-use crate::jobs::{BakedPayload, Baker, Job, JobContext};
+use crate::jobs::{self, BakedPayload, Baker, Job, JobContext};
 use crate::limits::InputLimits;
 use crate::pipeline::{LoadedPipeline, Pipeline};
 use crate::shard::{Shard, ShardRecord};
@@ -102,23 +102,26 @@ pub fn run_loaded(loaded: &LoadedPipeline, options: &RunOptions) -> Result<RunRe
     };
     let mut report = RunReport { bundle: out.clone(), ..Default::default() };
     report.watched.push(loaded.path.clone());
-    let jobs: Vec<&dyn Baker> = loaded
-        .pipeline
-        .jobs
-        .iter()
-        .map(Job::baker)
-        .filter(|job| options.shard.is_none_or(|s| s.has(job.id())))
-        .collect();
-    let total = jobs.len();
+    // Jobs split into their parts first, so that every shard agrees on the parts it takes.
+    let mut units = Vec::new();
+    for job in loaded.pipeline.jobs.iter().map(Job::baker) {
+        report.watched.extend(job.inputs(&loaded.base_dir));
+        units.extend(
+            jobs::units(job, &loaded.base_dir, &loaded.pipeline.limits)?
+                .into_iter()
+                .filter(|unit| options.shard.is_none_or(|s| s.has(unit.baker().id()))),
+        );
+    }
+    let total = units.len();
     let cache = match (&options.cache, &loaded.pipeline.cache) {
         (Some(c), _) => Some(c.clone()),
         (None, Some(dir)) => Some(Cache::open(&loaded.resolve(dir), DEFAULT_CACHE_BYTES)?),
         (None, None) => None,
     };
     let mut baked = Vec::new();
-    for (index, job) in jobs.into_iter().enumerate() {
+    for (index, unit) in units.iter().enumerate() {
         let run = JobRun { base_dir: &loaded.base_dir, limits: &loaded.pipeline.limits, cache: cache.as_ref() };
-        if let Some(made) = run_job(&mut writer, job, &run, options, (index, total), &mut report)? {
+        if let Some(made) = run_job(&mut writer, unit.baker(), &run, options, (index, total), &mut report)? {
             baked.push(made);
         }
     }
@@ -158,7 +161,6 @@ fn run_job(
 ) -> Result<Option<(String, Vec<Asset>)>, BakeError> {
     let id = job.id().to_string();
     options.observer.job_started(index, total, &id, job.kind());
-    report.watched.extend(job.inputs(run.base_dir));
     let hash = crate::hash::job_hash(job, run.base_dir, run.limits)?;
     let reusable: Option<Vec<_>> =
         if options.force { None } else { job.outputs().iter().map(|o| writer.reusable(o, &hash)).collect() };
@@ -211,7 +213,11 @@ pub fn run_one_job(job: &Job, bundle: &Path, options: &RunOptions) -> Result<Run
         let mut report = RunReport { bundle: bundle.to_path_buf(), ..Default::default() };
         let limits = InputLimits::default();
         let run = JobRun { base_dir: Path::new(""), limits: &limits, cache: options.cache.as_ref() };
-        run_job(&mut writer, job, &run, options, (0, 1), &mut report)?;
+        report.watched.extend(job.inputs(run.base_dir));
+        let units = jobs::units(job, run.base_dir, &limits)?;
+        for (index, unit) in units.iter().enumerate() {
+            run_job(&mut writer, unit.baker(), &run, options, (index, units.len()), &mut report)?;
+        }
         let summary = writer.commit_waiting(&|lock| options.observer.waiting_for_lock(lock))?;
         report.removed = summary.removed;
         report.manifest_written = summary.manifest_written;

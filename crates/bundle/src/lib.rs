@@ -44,7 +44,7 @@ pub use error::BundleError;
 pub use limits::Limits;
 pub use manifest::{
     AmbientOcclusionSettings, Asset, AssetKind, CurvatureSettings, EdgeMode, HeightfieldSettings, HorizonSettings,
-    MANIFEST_FILE, Manifest, MaxMipSettings, Payload, ReliefSettings, Settings, StrandsSettings,
+    MANIFEST_FILE, Manifest, MaxMipSettings, Payload, ReliefSettings, Settings, StrandsSettings, TilePlacement,
 };
 pub use mesh::{Accessor, ComponentType, MeshData, MeshDesc};
 pub use names::{check_asset_id, is_valid_asset_id, payload_file_name};

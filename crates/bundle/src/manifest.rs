@@ -325,6 +325,24 @@ pub struct HorizonSettings {
     pub open_sky_slope: f32,
     /// For `Rg8Unorm`: `tan β = tan((c0 − 0.5) π)`, `d = c1 × distance_scale`; 1 otherwise.
     pub distance_scale: f32,
+    /// Where this texture lies in a map baked in tiles (`None`: it is the whole map).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tile: Option<TilePlacement>,
+}
+
+/// The place of one tile of a map baked in tiles. A tile's texture covers texels
+/// `origin .. origin + (its width, its height)` of the whole map; its texels are those the
+/// whole map's bake would have there.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TilePlacement {
+    /// The tiled map's name (the job id): every tile of one map has the same.
+    pub map: String,
+    /// Column and row of the tile in the grid of tiles.
+    pub index: (u32, u32),
+    /// Column and row of the tile's first texel in the whole map.
+    pub origin: (u32, u32),
+    /// The whole map's width and height in texels.
+    pub map_size: (u32, u32),
 }
 
 impl HorizonSettings {
@@ -375,6 +393,9 @@ pub struct HeightfieldSettings {
     pub source_channel: String,
     /// True when the source held integers normalised to [0, 1] before scaling.
     pub normalized: bool,
+    /// Where these heights lie in a map baked in tiles (`None`: the whole map).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tile: Option<TilePlacement>,
 }
 
 impl Manifest {

@@ -16,8 +16,9 @@ pub struct FormatVersion {
 impl FormatVersion {
     /// The version this crate writes and reads. 1.1 added the `Horizon`, `AmbientOcclusion`
     /// and `Curvature` kinds; 1.2 the `Relief` and `MaxMip` kinds; 1.3 the `tangent_u` and
-    /// `tangent_v` streams of curvature meshes.
-    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 3 };
+    /// `tangent_v` streams of curvature meshes; 1.4 the `tile` placement of heightfields and
+    /// horizon textures baked in tiles.
+    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 4 };
 }
 
 impl fmt::Display for FormatVersion {

@@ -18,6 +18,20 @@ pub(super) fn is_hgt(path: &Path) -> bool {
 
 /// Reads an SRTM tile; the side comes from the length, checked before anything is allocated.
 pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Samples, BakeError> {
+    let side = side(path, options)?;
+    let bytes = std::fs::read(path).map_err(|e| BakeError::io(path, e))?;
+    let values = fill_voids(path, decode(&bytes), f32::from(VOID))?;
+    Ok(Samples { width: side, height: side, values, normalized: false, channel: "elevation".into() })
+}
+
+/// The samples of big-endian 16-bit bytes.
+pub(super) fn decode(bytes: &[u8]) -> Vec<f32> {
+    bytes.chunks_exact(2).map(|b| f32::from(i16::from_be_bytes([b[0], b[1]]))).collect()
+}
+
+/// The side of an SRTM tile from its length, checked against the limits and the channel asked
+/// for; nothing is read.
+pub(super) fn side(path: &Path, options: &LoadOptions) -> Result<u32, BakeError> {
     let len = std::fs::metadata(path).map_err(|e| BakeError::io(path, e))?.len();
     let Some(side) = square_side(len, 2).filter(|&n| n >= 2) else {
         return Err(BakeError::input(
@@ -30,8 +44,5 @@ pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Samples, BakeEr
     if options.channel.as_deref().is_some_and(|c| !c.eq_ignore_ascii_case("elevation")) {
         return Err(BakeError::input(path, None, "an SRTM tile has one channel, `elevation`"));
     }
-    let bytes = std::fs::read(path).map_err(|e| BakeError::io(path, e))?;
-    let raw = bytes.chunks_exact(2).map(|b| f32::from(i16::from_be_bytes([b[0], b[1]]))).collect();
-    let values = fill_voids(path, raw, f32::from(VOID))?;
-    Ok(Samples { width: side as u32, height: side as u32, values, normalized: false, channel: "elevation".into() })
+    Ok(side as u32)
 }

@@ -16,12 +16,15 @@ mod hgt;
 mod png;
 mod raw;
 mod tiff;
+mod window;
 
 use std::path::Path;
 
 use hikage_bundle::{Supercompression, TextureData, TextureDesc, TextureDimension, TextureFormat};
 
 use crate::error::BakeError;
+
+pub use window::HeightSource;
 
 /// Options for loading a heightfield image.
 #[derive(Clone, Debug, PartialEq)]

@@ -21,6 +21,24 @@ pub(super) fn bytes_per_sample(path: &Path) -> Option<u64> {
 /// Reads a raw heightmap of `bytes` per sample; the size is checked against the file's length
 /// and the limits before anything is read.
 pub(super) fn load(path: &Path, options: &LoadOptions, bytes: u64) -> Result<Samples, BakeError> {
+    let (w, h) = dimensions(path, options, bytes)?;
+    let data = std::fs::read(path).map_err(|e| BakeError::io(path, e))?;
+    let values = decode(&data, bytes);
+    Ok(Samples { width: w, height: h, values, normalized: false, channel: "height".into() })
+}
+
+/// The samples of little-endian bytes, `bytes` (2 or 4) per sample.
+pub(super) fn decode(data: &[u8], bytes: u64) -> Vec<f32> {
+    if bytes == 2 {
+        data.chunks_exact(2).map(|b| u16::from_le_bytes([b[0], b[1]]) as f32).collect()
+    } else {
+        data.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect()
+    }
+}
+
+/// The width and height of a raw heightmap of `bytes` per sample, checked against the file's
+/// length, the limits and the channel asked for; nothing is read.
+pub(super) fn dimensions(path: &Path, options: &LoadOptions, bytes: u64) -> Result<(u32, u32), BakeError> {
     let len = std::fs::metadata(path).map_err(|e| BakeError::io(path, e))?.len();
     let (w, h) = match options.raw_size {
         Some((w, h)) => (w as u64, h as u64),
@@ -46,11 +64,5 @@ pub(super) fn load(path: &Path, options: &LoadOptions, bytes: u64) -> Result<Sam
     if options.channel.as_deref().is_some_and(|c| !c.eq_ignore_ascii_case("height")) {
         return Err(BakeError::input(path, None, "a raw heightmap has one channel, `height`"));
     }
-    let data = std::fs::read(path).map_err(|e| BakeError::io(path, e))?;
-    let values = if bytes == 2 {
-        data.chunks_exact(2).map(|b| u16::from_le_bytes([b[0], b[1]]) as f32).collect()
-    } else {
-        data.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect()
-    };
-    Ok(Samples { width: w as u32, height: h as u32, values, normalized: false, channel: "height".into() })
+    Ok((w as u32, h as u32))
 }

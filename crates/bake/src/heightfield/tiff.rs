@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use tiff::decoder::{Decoder, DecodingResult, Limits};
+use tiff::decoder::{ChunkType, Decoder, DecodingResult, Limits};
 use tiff::tags::Tag;
 
 use super::{LoadOptions, Samples, check_dimensions, fill_voids};
@@ -19,10 +19,36 @@ pub(super) fn is_tiff(magic: &[u8]) -> bool {
         || magic.starts_with(b"MM\0+")
 }
 
+/// The first image of a TIFF, opened: its header read and checked, no sample decoded yet.
+pub(super) struct TiffFile {
+    decoder: Decoder<std::io::BufReader<std::fs::File>>,
+    /// Columns and rows.
+    pub width: u32,
+    pub height: u32,
+    /// GDAL's no-data value, if the file has one.
+    pub no_data: Option<f32>,
+}
+
 /// Reads the first image of a TIFF: its size checked from the header before any sample is
 /// decoded, one channel of u16, i16 or f32 samples.
 pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Samples, BakeError> {
-    let bad = |e: tiff::TiffError| BakeError::input(path, None, format!("cannot decode TIFF: {e}"));
+    let mut file = open(path, options)?;
+    let values = samples(path, file.decoder.read_image().map_err(|e| bad(path, e))?)?;
+    let values = match file.no_data {
+        Some(nd) => fill_voids(path, values, nd)?,
+        None => values,
+    };
+    Ok(Samples { width: file.width, height: file.height, values, normalized: false, channel: "height".into() })
+}
+
+fn bad(path: &Path, e: tiff::TiffError) -> BakeError {
+    BakeError::input(path, None, format!("cannot decode TIFF: {e}"))
+}
+
+/// Opens a TIFF and checks its header: size within the limits, one sample per pixel, the
+/// channel asked for, a readable no-data tag.
+pub(super) fn open(path: &Path, options: &LoadOptions) -> Result<TiffFile, BakeError> {
+    let bad = |e| bad(path, e);
     let file = std::fs::File::open(path).map_err(|e| BakeError::io(path, e))?;
     let mut limits = Limits::default();
     // Room for the largest map the limits allow, in f32 (the widest sample read).
@@ -51,11 +77,43 @@ pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Samples, BakeEr
                     Some("tag 42113 (GDAL_NODATA)".into()),
                     format!("expected a number, found {trimmed:?}"),
                 )
-            })?)
+            })? as f32)
         }
         None => None,
     };
-    let values: Vec<f32> = match decoder.read_image().map_err(bad)? {
+    Ok(TiffFile { decoder, width: w, height: h, no_data })
+}
+
+impl TiffFile {
+    /// The size of a full chunk (a strip spans the width) and how many chunks lie across.
+    pub fn chunk_grid(&self) -> ((u32, u32), u32) {
+        let (cw, ch) = self.decoder.chunk_dimensions();
+        let (cw, ch) = (cw.max(1), ch.max(1));
+        let across = match self.decoder.get_chunk_type() {
+            ChunkType::Strip => 1,
+            ChunkType::Tile => self.width.div_ceil(cw),
+        };
+        ((if across == 1 { self.width } else { cw }, ch), across)
+    }
+
+    /// Decodes chunk `index` (row-major over the chunk grid): its width, height and samples.
+    pub fn read_chunk(&mut self, path: &Path, index: u32) -> Result<(u32, u32, Vec<f32>), BakeError> {
+        let (w, h) = self.decoder.chunk_data_dimensions(index);
+        let values = samples(path, self.decoder.read_chunk(index).map_err(|e| bad(path, e))?)?;
+        if values.len() < w as usize * h as usize {
+            return Err(BakeError::input(
+                path,
+                Some(format!("chunk {index}")),
+                format!("expected {w}×{h} samples, found {}", values.len()),
+            ));
+        }
+        Ok((w, h, values))
+    }
+}
+
+/// Decoded samples as heights, taken as stored.
+fn samples(path: &Path, decoded: DecodingResult) -> Result<Vec<f32>, BakeError> {
+    Ok(match decoded {
         DecodingResult::U16(v) => v.into_iter().map(f32::from).collect(),
         DecodingResult::I16(v) => v.into_iter().map(f32::from).collect(),
         DecodingResult::F32(v) => v,
@@ -67,10 +125,5 @@ pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Samples, BakeEr
                 "expected 8- or 16-bit integer or 32-bit float samples",
             ));
         }
-    };
-    let values = match no_data {
-        Some(nd) => fill_voids(path, values, nd as f32)?,
-        None => values,
-    };
-    Ok(Samples { width: w, height: h, values, normalized: false, channel: "height".into() })
+    })
 }

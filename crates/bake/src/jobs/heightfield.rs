@@ -41,7 +41,7 @@ impl HeightFormat {
 pub struct HeightfieldJob {
     /// Asset id.
     pub id: String,
-    /// PNG (8/16-bit), OpenEXR, SRTM `.hgt` or raw `.r16`/`.r32` file.
+    /// PNG (8/16-bit), OpenEXR, TIFF/GeoTIFF, SRTM `.hgt` or raw `.r16`/`.r32` file.
     pub input: PathBuf,
     /// Channel to take; see [`crate::heightfield`] for the rule when absent.
     #[serde(default)]
@@ -191,6 +191,7 @@ pub fn settings_of(hf: &Heightfield) -> HeightfieldSettings {
         height_offset: hf.height_offset,
         source_channel: hf.source_channel.clone(),
         normalized: hf.normalized,
+        tile: None,
     }
 }
 

@@ -10,6 +10,7 @@ use super::heightfield::{HeightFormat, HeightfieldJob, check_world_units, one, u
 use super::{BakedAsset, BakedPayload, Baker, JobContext};
 use crate::error::BakeError;
 use crate::horizon::{self, DEFAULT_NEAR_FIELD, HorizonFormat, HorizonParams, OPEN_SKY_SLOPE};
+use crate::limits::InputLimits;
 
 /// Settings of a horizon bake. Asset ids: `<id>.height`, `<id>.horizon`, and `<id>.ao` with
 /// `ao: true`.
@@ -23,7 +24,7 @@ pub struct HorizonJob {
     /// Prefix of the asset ids.
     #[cfg_attr(feature = "clap", arg(skip))]
     pub id: String,
-    /// Heightfield: PNG (8/16-bit), OpenEXR, SRTM .hgt, or raw .r16/.r32.
+    /// Heightfield: PNG (8/16-bit), OpenEXR, TIFF/GeoTIFF, SRTM .hgt, or raw .r16/.r32.
     pub input: PathBuf,
     /// Width and height of a raw .r16/.r32 input, WxH (none: a square map's side from its
     /// length).
@@ -76,6 +77,12 @@ pub struct HorizonJob {
     #[serde(default)]
     #[cfg_attr(feature = "clap", arg(long))]
     pub ao: bool,
+    /// Bake in square tiles of this many texels, each tile its own assets
+    /// (`<id>.height.<tx>_<ty>`, `<id>.horizon.<tx>_<ty>`, `<id>.ao.<tx>_<ty>`) with its place in
+    /// the map, read from a window of the input around it; needs max_distance.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "clap", arg(long, value_name = "SIZE"))]
+    pub tile: Option<u32>,
 }
 
 /// Version of the horizon job (the baker's algorithm version and the job's own layout).
@@ -106,10 +113,11 @@ impl HorizonJob {
             near_field: DEFAULT_NEAR_FIELD,
             format: HorizonFormat::Rg16Float,
             ao: false,
+            tile: None,
         }
     }
 
-    fn heightfield_job(&self) -> HeightfieldJob {
+    pub(super) fn heightfield_job(&self) -> HeightfieldJob {
         HeightfieldJob {
             id: self.height_id(),
             input: self.input.clone(),
@@ -173,8 +181,10 @@ impl Baker for HorizonJob {
     }
 
     fn canonical_settings(&self) -> String {
+        // The tile size is appended only when given, so untiled jobs keep their hash's form.
+        let tile = self.tile.map(|t| format!(";tile={t}")).unwrap_or_default();
         format!(
-            "{};directions={};edge={:?};max_distance={:?};near_field={};format={:?};ao={}",
+            "{};directions={};edge={:?};max_distance={:?};near_field={};format={:?};ao={}{tile}",
             self.heightfield_job().canonical_settings(),
             self.directions,
             self.edge,
@@ -187,7 +197,21 @@ impl Baker for HorizonJob {
 
     fn check(&self) -> Result<(), String> {
         check_world_units(self.texel_size, self.height_scale, self.height_offset)?;
-        self.params().check()
+        self.params().check()?;
+        if let Some(t) = self.tile {
+            if t == 0 {
+                return Err("tile must be at least 1 texel".into());
+            }
+            horizon::halo(&self.params(), self.texel_size).map(|_| ())?;
+        }
+        Ok(())
+    }
+
+    fn parts(&self, base_dir: &Path, limits: &InputLimits) -> Result<Option<Vec<Box<dyn Baker>>>, BakeError> {
+        match self.tile {
+            Some(size) => super::horizon_tile::tiles(self, size, base_dir, limits).map(Some),
+            None => Ok(None),
+        }
     }
 
     fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
@@ -195,6 +219,14 @@ impl Baker for HorizonJob {
     }
 
     fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
+        if let Some(parts) = self.parts(ctx.base_dir, ctx.limits)? {
+            // The runner bakes the parts one by one; baked here, every tile is held at once.
+            let mut assets = Vec::new();
+            for part in parts {
+                assets.extend(part.bake(ctx)?);
+            }
+            return Ok(assets);
+        }
         let hf = self.heightfield_job().load(ctx)?;
         let baked = horizon::bake(&hf, &self.params(), ctx.progress).map_err(|message| BakeError::Setting {
             path: ctx.base_dir.join("pipeline.ron"),
@@ -211,6 +243,7 @@ impl Baker for HorizonJob {
             height_scale: hf.height_scale,
             open_sky_slope: OPEN_SKY_SLOPE,
             distance_scale: baked.distance_scale,
+            tile: None,
         };
         let mut assets = vec![self.heightfield_job().asset(&hf)?];
         if self.ao {

@@ -13,6 +13,7 @@
 pub mod curvature;
 pub mod heightfield;
 pub mod horizon;
+pub mod horizon_tile;
 pub mod relief;
 pub mod strands;
 
@@ -95,6 +96,40 @@ pub trait Baker: Sync {
 
     /// Bakes the job's assets, in the order of [`outputs`](Baker::outputs) or any other.
     fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError>;
+
+    /// The parts the job is baked as, each a job of its own for hashing, sharding, caching and
+    /// writing; `None` when the job is baked whole. A tiled horizon job is one part per tile, so
+    /// that shards share its tiles and each tile is written as soon as it is baked. It may read
+    /// its inputs' headers (and an input once through, to hash it); it bakes nothing.
+    fn parts(&self, _base_dir: &Path, _limits: &InputLimits) -> Result<Option<Vec<Box<dyn Baker>>>, BakeError> {
+        Ok(None)
+    }
+}
+
+/// A job as the runner bakes it: a pipeline's job, or a part of one ([`Baker::parts`]).
+pub enum Unit<'a> {
+    /// A job baked whole.
+    Job(&'a dyn Baker),
+    /// A part of a job.
+    Part(Box<dyn Baker>),
+}
+
+impl Unit<'_> {
+    /// The unit's baker.
+    pub fn baker(&self) -> &dyn Baker {
+        match self {
+            Unit::Job(j) => *j,
+            Unit::Part(p) => p.as_ref(),
+        }
+    }
+}
+
+/// The units `job` is baked as: its parts, or itself.
+pub fn units<'a>(job: &'a dyn Baker, base_dir: &Path, limits: &InputLimits) -> Result<Vec<Unit<'a>>, BakeError> {
+    Ok(match job.parts(base_dir, limits)? {
+        Some(parts) => parts.into_iter().map(Unit::Part).collect(),
+        None => vec![Unit::Job(job)],
+    })
 }
 
 /// Checks a job's id, the ids of the assets it makes, and its settings.

@@ -1,0 +1,208 @@
+//! One tile of a tiled `Horizon` job: a part of its own, baked from a window of the input.
+//!
+//! A job with `tile: Some(size)` is split into square tiles of `size` texels (smaller at the
+//! right and bottom edges), numbered by column and row in the grid of tiles. Each tile reads
+//! its window of the input (the tile and a halo of `max_distance`) and writes the tile's
+//! heights, horizon texture and, with `ao`, occlusion, each with a [`TilePlacement`]. Its
+//! texels are those the whole-map bake has there (`horizon::bake_tile`).
+//!
+//! A tile's input hash covers the job's settings, the tile's index and the input file's
+//! BLAKE3, taken once for all tiles when the job is split: hashing the whole input again per
+//! tile would cost more than many tiles' bakes.
+
+use std::path::{Path, PathBuf};
+
+use hikage_bundle::{AmbientOcclusionSettings, HorizonSettings, Settings, TilePlacement};
+
+use super::horizon::HorizonJob;
+use super::{BakedAsset, BakedPayload, Baker, JobContext};
+use crate::error::BakeError;
+use crate::heightfield::{HeightSource, Heightfield, LoadOptions};
+use crate::horizon::{self, OPEN_SKY_SLOPE, TileWindow};
+use crate::limits::InputLimits;
+
+/// One tile of a tiled horizon job.
+#[derive(Clone, Debug)]
+pub struct HorizonTileJob {
+    /// `<job id>.<tx>_<ty>`.
+    id: String,
+    job: HorizonJob,
+    /// Column and row in the grid of tiles.
+    index: (u32, u32),
+    place: TileWindow,
+    /// BLAKE3 of the input file, which the tile's input hash stands on.
+    input_digest: String,
+    /// The value the input's voids take (its lowest valid sample), found once for all tiles.
+    void_fill: Option<f32>,
+}
+
+/// Splits `job` into its tiles of `size` texels, reading the input's header, hashing it once,
+/// and finding the value of its voids.
+pub(super) fn tiles(
+    job: &HorizonJob,
+    size: u32,
+    base_dir: &Path,
+    limits: &InputLimits,
+) -> Result<Vec<Box<dyn Baker>>, BakeError> {
+    let path = base_dir.join(&job.input);
+    let setting =
+        |message: String| BakeError::Setting { path: base_dir.join("pipeline.ron"), job: job.id.clone(), message };
+    let halo = horizon::halo(&job.params(), job.texel_size).map_err(setting)?;
+    let mut source = HeightSource::open(&path, &load_options(job, limits))?;
+    let (w, h) = source.size();
+    let void_fill = source.void_fill()?;
+    let input_digest = crate::hash::file_digest(&path)?;
+    let mut parts: Vec<Box<dyn Baker>> = Vec::new();
+    for ty in 0..h.div_ceil(size) {
+        for tx in 0..w.div_ceil(size) {
+            let (x, y) = (tx * size, ty * size);
+            let rect = (x, y, size.min(w - x), size.min(h - y));
+            parts.push(Box::new(HorizonTileJob {
+                id: format!("{}.{tx}_{ty}", job.id),
+                job: job.clone(),
+                index: (tx, ty),
+                place: TileWindow::new((w, h), rect, halo, job.edge),
+                input_digest: input_digest.clone(),
+                void_fill,
+            }));
+        }
+    }
+    Ok(parts)
+}
+
+fn load_options(job: &HorizonJob, limits: &InputLimits) -> LoadOptions {
+    LoadOptions { channel: job.channel.clone(), max_dimension: limits.max_dimension, raw_size: job.raw_size }
+}
+
+impl HorizonTileJob {
+    fn suffix(&self) -> String {
+        format!("{}_{}", self.index.0, self.index.1)
+    }
+
+    fn placement(&self) -> TilePlacement {
+        TilePlacement {
+            map: self.job.id.clone(),
+            index: self.index,
+            origin: (self.place.tile.0, self.place.tile.1),
+            map_size: self.place.map,
+        }
+    }
+
+    /// The tile's texels of the window's heights.
+    fn tile_heights(&self, window: &Heightfield) -> Heightfield {
+        let (tx, ty, tw, th) = self.place.tile;
+        let (x0, y0) = ((tx as i64 - self.place.window.0) as usize, (ty as i64 - self.place.window.1) as usize);
+        let ww = window.width as usize;
+        let samples = (0..th as usize)
+            .flat_map(|r| window.samples[(y0 + r) * ww + x0..][..tw as usize].iter().copied())
+            .collect();
+        Heightfield { width: tw, height: th, samples, ..window.clone() }
+    }
+}
+
+impl Baker for HorizonTileJob {
+    fn id(&self) -> &str {
+        &self.id
+    }
+
+    fn kind(&self) -> &'static str {
+        "horizon"
+    }
+
+    fn algorithm_version(&self) -> u32 {
+        self.job.algorithm_version()
+    }
+
+    /// None: the input file is hashed once for every tile, its BLAKE3 part of the settings.
+    fn inputs(&self, _base_dir: &Path) -> Vec<PathBuf> {
+        Vec::new()
+    }
+
+    fn outputs(&self) -> Vec<String> {
+        self.job.outputs().into_iter().map(|id| format!("{id}.{}", self.suffix())).collect()
+    }
+
+    fn canonical_settings(&self) -> String {
+        format!(
+            "{};tile_index=({},{});input_blake3={}",
+            self.job.canonical_settings(),
+            self.index.0,
+            self.index.1,
+            self.input_digest
+        )
+    }
+
+    fn check(&self) -> Result<(), String> {
+        self.job.check()
+    }
+
+    fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
+        self.job.check_inputs(ctx)
+    }
+
+    fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
+        let path = ctx.base_dir.join(&self.job.input);
+        let mut source = HeightSource::open(&path, &load_options(&self.job, ctx.limits))?;
+        if source.size() != self.place.map {
+            let (w, h) = self.place.map;
+            let (fw, fh) = source.size();
+            return Err(BakeError::input(
+                &path,
+                None,
+                format!("expected the {w}×{h} map the job was split for, found {fw}×{fh}"),
+            ));
+        }
+        let (wx, wy, ww, wh) = self.place.window;
+        let samples = source.read_window((wx, wy), (ww, wh), self.void_fill)?;
+        let (normalized, source_channel) = source.channel();
+        let window = Heightfield {
+            width: ww,
+            height: wh,
+            samples,
+            texel_size: self.job.texel_size,
+            height_scale: self.job.height_scale,
+            height_offset: self.job.height_offset,
+            normalized,
+            source_channel,
+        };
+        let params = self.job.params();
+        let baked = horizon::bake_tile(&window, &self.place, &params, ctx.progress).map_err(|message| {
+            BakeError::Setting { path: ctx.base_dir.join("pipeline.ron"), job: self.id.clone(), message }
+        })?;
+        let suffix = self.suffix();
+        let mut height = self.job.heightfield_job().asset(&self.tile_heights(&window))?;
+        height.id = format!("{}.{suffix}", height.id);
+        if let Settings::Heightfield(s) = &mut height.settings {
+            s.tile = Some(self.placement());
+        }
+        let horizon_id = format!("{}.{suffix}", self.job.horizon_id());
+        let mut assets = vec![height];
+        if self.job.ao {
+            assets.push(BakedAsset {
+                id: format!("{}.{suffix}", self.job.ao_id()),
+                settings: Settings::AmbientOcclusion(AmbientOcclusionSettings {
+                    horizon: horizon_id.clone(),
+                    directions: self.job.directions,
+                }),
+                payload: BakedPayload::Texture(horizon::ambient_occlusion(&baked)),
+            });
+        }
+        assets.push(BakedAsset {
+            id: horizon_id,
+            settings: Settings::Horizon(HorizonSettings {
+                heightfield: format!("{}.{suffix}", self.job.height_id()),
+                directions: self.job.directions,
+                edge: self.job.edge,
+                max_distance: self.job.max_distance,
+                near_field: self.job.near_field,
+                texel_size: self.job.texel_size,
+                height_scale: self.job.height_scale,
+                open_sky_slope: OPEN_SKY_SLOPE,
+                distance_scale: baked.distance_scale,
+                tile: Some(self.placement()),
+            }),
+            payload: BakedPayload::Texture(baked.texture),
+        });
+        Ok(assets)
+    }
+}
