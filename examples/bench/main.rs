@@ -3,7 +3,10 @@
 //! ```text
 //! cargo run --release --example bench              # every table
 //! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load
+//! cargo run --release --example bench -- scale     # tiled bakes: ~20 min, ~50 GiB of disk
 //! ```
+//!
+//! `scale` runs only when named: its bakes take minutes each and write tens of GiB.
 //!
 //! Every figure is the best of several runs (machines here are noisy), with its baseline
 //! measured in the same run. Set `RAYON_NUM_THREADS` to change the thread count.
@@ -13,6 +16,7 @@ mod hair;
 mod horizon;
 mod load;
 mod relief;
+mod scale;
 
 use std::time::Instant;
 
@@ -56,6 +60,18 @@ pub fn reset_peak_rss() -> bool {
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    if let [flag, pipeline] = args.as_slice()
+        && flag == "--bake-child"
+    {
+        scale::bake_child(std::path::Path::new(pipeline));
+        return;
+    }
+    if let [flag, scratch, md] = args.as_slice()
+        && flag == "--bake-whole-child"
+    {
+        scale::bake_whole_child(std::path::Path::new(scratch), md.parse().expect("a max_distance"));
+        return;
+    }
     let wanted = |name: &str| args.is_empty() || args.iter().any(|a| a == name);
     let threads = rayon::current_num_threads();
     println!("hikage benchmarks — {threads} threads, best of N runs\n");
@@ -76,5 +92,8 @@ fn main() {
     }
     if wanted("load") {
         load::run();
+    }
+    if args.iter().any(|a| a == "scale") {
+        scale::run();
     }
 }

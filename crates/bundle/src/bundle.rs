@@ -296,12 +296,7 @@ fn texture_problems(kind: AssetKind, t: &TextureDesc, settings: &Settings) -> Ve
         }
         _ => {}
     }
-    let tile = match settings {
-        Settings::Horizon(h) => h.tile.as_ref(),
-        Settings::Heightfield(h) => h.tile.as_ref(),
-        _ => None,
-    };
-    if let Some(p) = tile {
+    if let Some(p) = settings.tile() {
         let fits = |o: u32, n: u32, size: u32| o as u64 + n as u64 <= size as u64;
         if !fits(p.origin.0, t.width, p.map_size.0) || !fits(p.origin.1, t.height, p.map_size.1) {
             problems.push(format!(

@@ -198,6 +198,16 @@ impl Settings {
             _ => Vec::new(),
         }
     }
+
+    /// Where the asset lies in a map baked in tiles: a tile's heights or horizons. `None` for
+    /// whole maps and other kinds.
+    pub fn tile(&self) -> Option<&TilePlacement> {
+        match self {
+            Settings::Horizon(h) => h.tile.as_ref(),
+            Settings::Heightfield(h) => h.tile.as_ref(),
+            _ => None,
+        }
+    }
 }
 
 /// `Settings::heightfield()` and its siblings: the settings of one kind, or `None`.
@@ -343,6 +353,20 @@ pub struct TilePlacement {
     pub origin: (u32, u32),
     /// The whole map's width and height in texels.
     pub map_size: (u32, u32),
+}
+
+impl TilePlacement {
+    /// Where the tile's frame starts in the whole map's, in world units along `u` and `v`:
+    /// its origin times the texel size. A game draws the tile translated by it.
+    ///
+    /// ```
+    /// use hikage_bundle::TilePlacement;
+    /// let t = TilePlacement { map: "dem".into(), index: (3, 1), origin: (3072, 1024), map_size: (8192, 8192) };
+    /// assert_eq!(t.offset((2.0, 0.5)), (6144.0, 512.0));
+    /// ```
+    pub fn offset(&self, (sx, sy): (f32, f32)) -> (f32, f32) {
+        (self.origin.0 as f32 * sx, self.origin.1 as f32 * sy)
+    }
 }
 
 impl HorizonSettings {

@@ -94,6 +94,17 @@ impl Changes {
 /// // Later, after an artist rebaked: read again only what changed.
 /// let changes = terrain.reload()?;
 /// println!("changed: {:?}", changes.changed);
+/// // A map baked in tiles (`tile: Some(1024)`): stream the horizon tiles within 2 tiles of
+/// // the camera's tile, each with its heights; every tile says where it lies in the map.
+/// let (cx, cy) = (3, 5);
+/// let near = CpuBundle::read_where("bundle".as_ref(), |a| {
+///     a.settings.horizon().and_then(|h| h.tile.as_ref()).is_some_and(|t| {
+///         t.map == "dem" && t.index.0.abs_diff(cx) <= 2 && t.index.1.abs_diff(cy) <= 2
+///     })
+/// })?;
+/// for tile in near.assets.iter().filter_map(|a| a.asset.settings.tile()) {
+///     println!("tile {:?} starts at texel {:?} of {:?}", tile.index, tile.origin, tile.map_size);
+/// }
 /// # Ok::<(), hikage_runtime::RuntimeError>(())
 /// ```
 #[derive(Clone, Debug)]

@@ -3,12 +3,13 @@
 
 use std::path::{Path, PathBuf};
 
-use hikage_bundle::{AmbientOcclusionSettings, EdgeMode, HorizonSettings, Settings};
+use hikage_bundle::{AmbientOcclusionSettings, EdgeMode, HorizonSettings, Settings, TilePlacement};
 use serde::{Deserialize, Serialize};
 
 use super::heightfield::{HeightFormat, HeightfieldJob, check_world_units, one, unit_texel};
 use super::{BakedAsset, BakedPayload, Baker, JobContext};
 use crate::error::BakeError;
+use crate::heightfield::Heightfield;
 use crate::horizon::{self, DEFAULT_NEAR_FIELD, HorizonFormat, HorizonParams, OPEN_SKY_SLOPE};
 use crate::limits::InputLimits;
 
@@ -215,7 +216,11 @@ impl Baker for HorizonJob {
     }
 
     fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
-        self.heightfield_job().load(ctx).map(|_| ())
+        match self.tile {
+            // Tiles read windows: the header is what they check first, and the map may not fit.
+            Some(_) => super::horizon_tile::open(self, ctx.base_dir, ctx.limits).map(|_| ()),
+            None => self.heightfield_job().load(ctx).map(|_| ()),
+        }
     }
 
     fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
@@ -233,8 +238,29 @@ impl Baker for HorizonJob {
             job: self.id.clone(),
             message,
         })?;
+        self.assets(&hf, baked, None)
+    }
+}
+
+impl HorizonJob {
+    /// The assets of baked horizons and the heights they came from: `<id>.height`, `<id>.ao`
+    /// with `ao`, and `<id>.horizon`; for a tile, each id followed by `.<tx>_<ty>` and the
+    /// heights and horizons placed in the map.
+    pub(super) fn assets(
+        &self,
+        hf: &Heightfield,
+        baked: horizon::HorizonTexture,
+        tile: Option<&TilePlacement>,
+    ) -> Result<Vec<BakedAsset>, BakeError> {
+        let suffix = tile.map(|t| format!(".{}_{}", t.index.0, t.index.1)).unwrap_or_default();
+        let horizon_id = format!("{}{suffix}", self.horizon_id());
+        let mut height = self.heightfield_job().asset(hf)?;
+        height.id.push_str(&suffix);
+        if let Settings::Heightfield(s) = &mut height.settings {
+            s.tile = tile.cloned();
+        }
         let settings = HorizonSettings {
-            heightfield: self.height_id(),
+            heightfield: height.id.clone(),
             directions: self.directions,
             edge: self.edge,
             max_distance: self.max_distance,
@@ -243,21 +269,21 @@ impl Baker for HorizonJob {
             height_scale: hf.height_scale,
             open_sky_slope: OPEN_SKY_SLOPE,
             distance_scale: baked.distance_scale,
-            tile: None,
+            tile: tile.cloned(),
         };
-        let mut assets = vec![self.heightfield_job().asset(&hf)?];
+        let mut assets = vec![height];
         if self.ao {
             assets.push(BakedAsset {
-                id: self.ao_id(),
+                id: format!("{}{suffix}", self.ao_id()),
                 settings: Settings::AmbientOcclusion(AmbientOcclusionSettings {
-                    horizon: self.horizon_id(),
+                    horizon: horizon_id.clone(),
                     directions: self.directions,
                 }),
                 payload: BakedPayload::Texture(horizon::ambient_occlusion(&baked)),
             });
         }
         assets.push(BakedAsset {
-            id: self.horizon_id(),
+            id: horizon_id,
             settings: Settings::Horizon(settings),
             payload: BakedPayload::Texture(baked.texture),
         });

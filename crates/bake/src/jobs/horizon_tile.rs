@@ -12,13 +12,13 @@
 
 use std::path::{Path, PathBuf};
 
-use hikage_bundle::{AmbientOcclusionSettings, HorizonSettings, Settings, TilePlacement};
+use hikage_bundle::TilePlacement;
 
 use super::horizon::HorizonJob;
-use super::{BakedAsset, BakedPayload, Baker, JobContext};
+use super::{BakedAsset, Baker, JobContext};
 use crate::error::BakeError;
 use crate::heightfield::{HeightSource, Heightfield, LoadOptions};
-use crate::horizon::{self, OPEN_SKY_SLOPE, TileWindow};
+use crate::horizon::{self, TileWindow};
 use crate::limits::InputLimits;
 
 /// One tile of a tiled horizon job.
@@ -48,7 +48,7 @@ pub(super) fn tiles(
     let setting =
         |message: String| BakeError::Setting { path: base_dir.join("pipeline.ron"), job: job.id.clone(), message };
     let halo = horizon::halo(&job.params(), job.texel_size).map_err(setting)?;
-    let mut source = HeightSource::open(&path, &load_options(job, limits))?;
+    let mut source = open(job, base_dir, limits)?;
     let (w, h) = source.size();
     let void_fill = source.void_fill()?;
     let input_digest = crate::hash::file_digest(&path)?;
@@ -68,6 +68,11 @@ pub(super) fn tiles(
         }
     }
     Ok(parts)
+}
+
+/// Opens the job's input for reading windows: its header read and checked.
+pub(super) fn open(job: &HorizonJob, base_dir: &Path, limits: &InputLimits) -> Result<HeightSource, BakeError> {
+    HeightSource::open(&base_dir.join(&job.input), &load_options(job, limits))
 }
 
 fn load_options(job: &HorizonJob, limits: &InputLimits) -> LoadOptions {
@@ -142,7 +147,7 @@ impl Baker for HorizonTileJob {
 
     fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
         let path = ctx.base_dir.join(&self.job.input);
-        let mut source = HeightSource::open(&path, &load_options(&self.job, ctx.limits))?;
+        let mut source = open(&self.job, ctx.base_dir, ctx.limits)?;
         if source.size() != self.place.map {
             let (w, h) = self.place.map;
             let (fw, fh) = source.size();
@@ -169,40 +174,6 @@ impl Baker for HorizonTileJob {
         let baked = horizon::bake_tile(&window, &self.place, &params, ctx.progress).map_err(|message| {
             BakeError::Setting { path: ctx.base_dir.join("pipeline.ron"), job: self.id.clone(), message }
         })?;
-        let suffix = self.suffix();
-        let mut height = self.job.heightfield_job().asset(&self.tile_heights(&window))?;
-        height.id = format!("{}.{suffix}", height.id);
-        if let Settings::Heightfield(s) = &mut height.settings {
-            s.tile = Some(self.placement());
-        }
-        let horizon_id = format!("{}.{suffix}", self.job.horizon_id());
-        let mut assets = vec![height];
-        if self.job.ao {
-            assets.push(BakedAsset {
-                id: format!("{}.{suffix}", self.job.ao_id()),
-                settings: Settings::AmbientOcclusion(AmbientOcclusionSettings {
-                    horizon: horizon_id.clone(),
-                    directions: self.job.directions,
-                }),
-                payload: BakedPayload::Texture(horizon::ambient_occlusion(&baked)),
-            });
-        }
-        assets.push(BakedAsset {
-            id: horizon_id,
-            settings: Settings::Horizon(HorizonSettings {
-                heightfield: format!("{}.{suffix}", self.job.height_id()),
-                directions: self.job.directions,
-                edge: self.job.edge,
-                max_distance: self.job.max_distance,
-                near_field: self.job.near_field,
-                texel_size: self.job.texel_size,
-                height_scale: self.job.height_scale,
-                open_sky_slope: OPEN_SKY_SLOPE,
-                distance_scale: baked.distance_scale,
-                tile: Some(self.placement()),
-            }),
-            payload: BakedPayload::Texture(baked.texture),
-        });
-        Ok(assets)
+        self.job.assets(&self.tile_heights(&window), baked, Some(&self.placement()))
     }
 }

@@ -40,7 +40,8 @@ pub struct TerrainFrame {
     pub view_proj: Mat4,
     /// Terrain frame → world. The terrain frame has `x` along +u (columns), `y` up, `z` along +v
     /// (rows), in the heightfield's world units, texel `(i, j)` centred at `((i + ½)·sx, h,
-    /// (j + ½)·sy)`.
+    /// (j + ½)·sy)`. A tile of a map baked in tiles sits in the map's frame translated by
+    /// [`hikage_bundle::TilePlacement::offset`].
     pub model: Mat4,
     /// The sun.
     pub sun: Sun,
