@@ -132,3 +132,16 @@ fn tiling_without_max_distance_is_refused_before_anything_is_read() {
     assert!(stderr(&out).contains("max_distance"), "{}", dir.explain(&["bake"], &out, "max_distance"));
     assert!(!dir.path("bundle").exists());
 }
+
+#[test]
+fn a_halo_too_large_to_read_is_refused_before_allocating() {
+    // max_distance 1e9 texels on a torus: each window would be billions of texels wide.
+    let dir = setup("tiles_huge_halo", "Wrap");
+    dir.write(
+        "pipeline.ron",
+        r#"(output: "bundle", jobs: [Horizon(id: "t", input: "map.r32", raw_size: (150, 110), max_distance: 1e9, tile: 64)])"#,
+    );
+    let out = dir.run_expecting(&["bake"], 1);
+    let needle = "above the limit of 16384: lower tile or max_distance";
+    assert!(stderr(&out).contains(needle), "{}", dir.explain(&["bake"], &out, needle));
+}

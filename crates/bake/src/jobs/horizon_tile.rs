@@ -57,11 +57,20 @@ pub(super) fn tiles(
         for tx in 0..w.div_ceil(size) {
             let (x, y) = (tx * size, ty * size);
             let rect = (x, y, size.min(w - x), size.min(h - y));
+            let place = TileWindow::new((w, h), rect, halo, job.edge);
+            let (_, _, ww, wh) = place.window;
+            if ww.max(wh) > limits.max_dimension {
+                return Err(setting(format!(
+                    "a {}×{} tile with a halo of {halo:?} texels (max_distance {:?}) reads a {ww}×{wh} window of \
+                     heights, above the limit of {}: lower tile or max_distance",
+                    rect.2, rect.3, job.max_distance, limits.max_dimension
+                )));
+            }
             parts.push(Box::new(HorizonTileJob {
                 id: format!("{}.{tx}_{ty}", job.id),
                 job: job.clone(),
                 index: (tx, ty),
-                place: TileWindow::new((w, h), rect, halo, job.edge),
+                place,
                 input_digest: input_digest.clone(),
                 void_fill,
             }));
