@@ -51,13 +51,14 @@ fn texel(t: &TextureData, k: u32, x: u32, y: u32) -> &[u8] {
 /// Every tile of `tiled` holds the bytes of the same region of `whole`, for each asset kind.
 fn tiles_match(bundle: &Bundle) -> usize {
     let mut compared = 0;
-    for (ty, tx) in (0..H.div_ceil(64)).flat_map(|ty| (0..W.div_ceil(64)).map(move |tx| (ty, tx))) {
+    // Tiles every 64 texels, each 65 wide (the next tile's first column and row too).
+    for (ty, tx) in (0..(H - 1).div_ceil(64)).flat_map(|ty| (0..(W - 1).div_ceil(64)).map(move |tx| (ty, tx))) {
         for kind in ["height", "horizon", "ao"] {
             let id = format!("tiled.{kind}.{tx}_{ty}");
             let tile = bundle.read_texture(&id).unwrap();
             let whole = bundle.read_texture(&format!("whole.{kind}")).unwrap();
             let (ox, oy) = (tx * 64, ty * 64);
-            assert_eq!((tile.desc.width, tile.desc.height), (64.min(W - ox), 64.min(H - oy)), "{id}");
+            assert_eq!((tile.desc.width, tile.desc.height), (65.min(W - ox), 65.min(H - oy)), "{id}");
             let placement = match &bundle.asset(&id).unwrap().settings {
                 Settings::Horizon(h) => h.tile.clone(),
                 Settings::Heightfield(h) => h.tile.clone(),
@@ -95,7 +96,9 @@ fn tiles_of_a_pipeline_are_the_whole_maps_bytes_and_placed() {
         dir.run(&["bake"]);
         dir.run(&["validate", "bundle"]);
         let bundle = Bundle::open(&dir.path("bundle")).unwrap();
-        assert_eq!(tiles_match(&bundle), (W * H * (12 + 2)) as usize, "{edge}");
+        // Every texel, plus the columns and rows two tiles share.
+        let (cols, rows) = (W + (W - 1).div_ceil(64) - 1, H + (H - 1).div_ceil(64) - 1);
+        assert_eq!(tiles_match(&bundle), (cols * rows * (12 + 2)) as usize, "{edge}");
         // A second run keeps every tile.
         let out = crate::util::stdout(&dir.run(&["bake"]));
         assert!(out.contains("baked 0"), "{out}");

@@ -1,7 +1,9 @@
 //! One tile of a tiled `Horizon` job: a part of its own, baked from a window of the input.
 //!
-//! A job with `tile: Some(size)` is split into square tiles of `size` texels (smaller at the
-//! right and bottom edges), numbered by column and row in the grid of tiles. Each tile reads
+//! A job with `tile: Some(size)` is split into square tiles, one every `size` texels, numbered
+//! by column and row in the grid of tiles. Each holds `size + 1` texels a side (fewer at the
+//! map's right and bottom edges): its last column and row are the next tile's first, so meshes
+//! drawn through texel centres meet without a crack. Each tile reads
 //! its window of the input (the tile and a halo of `max_distance`) and writes the tile's
 //! heights, horizon texture and, with `ao`, occlusion, each with a [`TilePlacement`]. Its
 //! texels are those the whole-map bake has there (`horizon::bake_tile`).
@@ -53,10 +55,13 @@ pub(super) fn tiles(
     let void_fill = source.void_fill()?;
     let input_digest = crate::hash::file_digest(&path)?;
     let mut parts: Vec<Box<dyn Baker>> = Vec::new();
-    for ty in 0..h.div_ceil(size) {
-        for tx in 0..w.div_ceil(size) {
+    // Tiles start every `size` texels and hold one more, the next tile's first column and row:
+    // a mesh through texel centres then meets its neighbour's without a crack.
+    let count = |n: u32| (n.saturating_sub(1)).div_ceil(size).max(1);
+    for ty in 0..count(h) {
+        for tx in 0..count(w) {
             let (x, y) = (tx * size, ty * size);
-            let rect = (x, y, size.min(w - x), size.min(h - y));
+            let rect = (x, y, (size + 1).min(w - x), (size + 1).min(h - y));
             let place = TileWindow::new((w, h), rect, halo, job.edge);
             let (_, _, ww, wh) = place.window;
             if ww.max(wh) > limits.max_dimension {
