@@ -92,17 +92,10 @@ pub fn bake_tile(
     if (window.width, window.height) != (ww, wh) {
         return Err(format!("the window holds {}×{} heights, expected {ww}×{wh}", window.width, window.height));
     }
-    let inside = |t: u32, len: u32, w: i64, wlen: u32, halo: u32, map: u32| {
-        let (t, end) = (t as i64, t as i64 + len as i64);
-        len > 0
-            && end <= map as i64
-            && w <= t
-            && t + len as i64 <= w + wlen as i64
-            && (w <= t - halo as i64 || (params.edge == EdgeMode::Clamp && w == 0))
-            && (end + halo as i64 <= w + wlen as i64
-                || (params.edge == EdgeMode::Clamp && w + wlen as i64 == map as i64))
-    };
-    if !inside(tx, tw, wx, ww, halo.0, place.map.0) || !inside(ty, th, wy, wh, halo.1, place.map.1) {
+    let clamped = params.edge == EdgeMode::Clamp;
+    if !covers((tx, tw), (wx, ww), halo.0, place.map.0, clamped)
+        || !covers((ty, th), (wy, wh), halo.1, place.map.1, clamped)
+    {
         return Err(format!(
             "tile {:?} of a {}×{} map needs its window to cover it and a halo of {halo:?} texels, found window {:?}",
             place.tile, place.map.0, place.map.1, place.window
@@ -140,6 +133,17 @@ pub fn bake_tile(
     });
     let desc = TextureDesc { width: tw, height: th, ..texture_desc(params) };
     Ok(HorizonTexture { texture: TextureData { desc, levels: vec![bytes] }, distance_scale })
+}
+
+/// Whether, along one axis of a `map`-texel map, the window (start, length) holds the tile
+/// (start, length) and `halo` texels on either side of it; on a clamped map the window may stop
+/// at the map's edge instead.
+fn covers((t, len): (u32, u32), (w, wlen): (i64, u32), halo: u32, map: u32, clamped: bool) -> bool {
+    let (t, end, w_end) = (t as i64, t as i64 + len as i64, w + wlen as i64);
+    let (halo, map) = (halo as i64, map as i64);
+    let before = w <= t - halo || (clamped && w == 0);
+    let after = end + halo <= w_end || (clamped && w_end == map);
+    len > 0 && end <= map && before && after
 }
 
 /// Reads the window of `place` from a whole map's samples: the samples a tile's bake gets,

@@ -61,7 +61,7 @@ pub(super) fn tiles(
     for ty in 0..count(h) {
         for tx in 0..count(w) {
             let (x, y) = (tx * size, ty * size);
-            let rect = (x, y, (size + 1).min(w - x), (size + 1).min(h - y));
+            let rect = (x, y, size.saturating_add(1).min(w - x), size.saturating_add(1).min(h - y));
             let place = TileWindow::new((w, h), rect, halo, job.edge);
             let (_, _, ww, wh) = place.window;
             if ww.max(wh) > limits.max_dimension {
