@@ -2,7 +2,7 @@
 //! checkout with an empty bundle taking everything from it, a damaged entry found and rebaked,
 //! and the size bound.
 
-use crate::util::{Dir, snapshot, stdout};
+use crate::util::{Dir, stdout};
 
 const PIPELINE: &str = r#"(output: "bundle", jobs: [
     Horizon(id: "cylinders", input: "data/cylinders.png", height_scale: 4, directions: 8, edge: Wrap),
@@ -12,10 +12,7 @@ const PIPELINE: &str = r#"(output: "bundle", jobs: [
 ])"#;
 
 fn checkout(name: &str) -> Dir {
-    let dir = Dir::new(name);
-    dir.copy_data();
-    dir.write("pipeline.ron", PIPELINE);
-    dir
+    Dir::with_pipeline(name, PIPELINE)
 }
 
 /// `(baked, from the cache)` of a bake's report line.
@@ -29,8 +26,8 @@ fn counts(line: &str) -> (usize, usize) {
 }
 
 fn payloads(dir: &Dir) -> std::collections::BTreeMap<String, Vec<u8>> {
-    let mut files = snapshot(&dir.path("bundle"));
-    files.retain(|name, _| !name.starts_with(".hikage") && name != "shard.ron");
+    let mut files = dir.bundle_files("bundle");
+    files.remove("shard.ron");
     files
 }
 

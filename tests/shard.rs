@@ -1,7 +1,7 @@
 //! A pipeline split over machines: `hikage bake --shard K/N` in separate copies of the inputs,
 //! then `hikage merge`, against one machine's `hikage bake`.
 
-use crate::util::{Dir, snapshot, stderr};
+use crate::util::{Dir, stderr};
 
 const PIPELINE: &str = r#"(output: "bundle", jobs: [
     Horizon(id: "cylinders", input: "data/cylinders.png", height_scale: 4, directions: 8, edge: Wrap),
@@ -12,17 +12,7 @@ const PIPELINE: &str = r#"(output: "bundle", jobs: [
 ])"#;
 
 fn copy(name: &str) -> Dir {
-    let dir = Dir::new(name);
-    dir.copy_data();
-    dir.write("pipeline.ron", PIPELINE);
-    dir
-}
-
-/// The manifest and every payload file, without the lock file writers share.
-fn bundle_files(dir: &Dir, bundle: &str) -> std::collections::BTreeMap<String, Vec<u8>> {
-    let mut files = snapshot(&dir.path(bundle));
-    files.retain(|name, _| !name.starts_with(".hikage"));
-    files
+    Dir::with_pipeline(name, PIPELINE)
 }
 
 #[test]
@@ -45,11 +35,7 @@ fn three_shards_merge_into_the_one_machine_bundle() {
     let mut args = vec!["merge", "out"];
     args.extend(paths.iter().map(String::as_str));
     merged.run(&args);
-    assert_eq!(
-        bundle_files(&merged, "out"),
-        bundle_files(&whole, "bundle"),
-        "merged bundle differs from one machine's"
-    );
+    assert_eq!(merged.bundle_files("out"), whole.bundle_files("bundle"), "merged bundle differs from one machine's");
     merged.run(&["validate", "out"]);
 
     // Refusals, by name: a missing shard, a repeated one, another pipeline's shard.
@@ -71,7 +57,7 @@ fn three_shards_merge_into_the_one_machine_bundle() {
     let from_env = copy("shard_env");
     let out = from_env.command(&["bake", "--shard", "env/3"]).env("JOB_COMPLETION_INDEX", "1").output().unwrap();
     assert!(out.status.success(), "{}", stderr(&out));
-    assert_eq!(bundle_files(&from_env, "bundle"), bundle_files(&parts[1], "bundle"));
+    assert_eq!(from_env.bundle_files("bundle"), parts[1].bundle_files("bundle"));
 }
 
 #[test]

@@ -27,10 +27,23 @@ impl Dir {
 
     /// A directory holding the default `pipeline.ron` and a copy of `data/`.
     pub fn with_default_pipeline(name: &str) -> Dir {
+        Dir::with_pipeline(name, &std::fs::read_to_string(repo().join("pipeline.ron")).unwrap())
+    }
+
+    /// A directory holding `pipeline` as `pipeline.ron` and a copy of `data/`.
+    pub fn with_pipeline(name: &str, pipeline: &str) -> Dir {
         let dir = Dir::new(name);
-        std::fs::copy(repo().join("pipeline.ron"), dir.root.join("pipeline.ron")).unwrap();
         dir.copy_data();
+        dir.write("pipeline.ron", pipeline);
         dir
+    }
+
+    /// The files of the bundle at `rel`: the manifest, payloads and any shard record, without
+    /// the lock and staging files writers share.
+    pub fn bundle_files(&self, rel: &str) -> BTreeMap<String, Vec<u8>> {
+        let mut files = snapshot(&self.path(rel));
+        files.retain(|name, _| !name.starts_with(".hikage"));
+        files
     }
 
     /// Copies every file of the repository's `data/` into `data/` here.

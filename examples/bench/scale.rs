@@ -47,7 +47,8 @@ pub fn run() {
         whole.seconds, whole.peak_mib, whole.output_mib
     );
     println!(
-        "| {tiles} tiles | {input} | {:.0} s | {:.0} MiB | {:.0} MiB | whole map {:.0} MiB peak, {:.0} s | **{:.3}×** its peak RSS, {:.2}× its time |",
+        "| {} tiles | {input} | {:.0} s | {:.0} MiB | {:.0} MiB | whole map {:.0} MiB peak, {:.0} s | **{:.3}×** its peak RSS, {:.2}× its time |",
+        tiled.tiles,
         tiled.seconds,
         tiled.peak_mib,
         tiled.output_mib,
@@ -68,7 +69,7 @@ pub fn run() {
     let whole_mib = n as f64 * n as f64 * DIRECTIONS as f64 * 4.0 / (1 << 20) as f64;
     println!(
         "| {} tiles | {n}² DEM (.r32, 1 GiB), max_distance {md} m (halo {halo} texels) | {:.0} s | {:.0} MiB | {:.0} MiB | a whole-map bake holds its {:.0} MiB output (machine: {:.0} MiB) | {:.3}× of the output |",
-        (n / TILE) * (n / TILE),
+        big.tiles,
         big.seconds,
         big.peak_mib,
         big.output_mib,
@@ -98,6 +99,8 @@ fn texel(n: u32) -> f32 {
 
 /// One bake's figures.
 struct Measured {
+    /// Horizon assets written (tiles).
+    tiles: usize,
     seconds: f64,
     peak_mib: f64,
     output_mib: f64,
@@ -115,8 +118,10 @@ fn bake(scratch: &Path, name: &str, n: u32, md: f32, tile: u32) -> Measured {
     std::fs::write(&path, pipeline).expect("the pipeline is written");
     let (seconds, peak_mib) = timed(&["--bake-child".as_ref(), path.as_os_str()]);
     let bundle = Bundle::open(&scratch.join(name)).expect("the bundle opens");
-    let output: u64 = bundle.manifest().assets.iter().map(|a| a.byte_length).sum();
-    Measured { seconds, peak_mib, output_mib: output as f64 / (1 << 20) as f64 }
+    let assets = &bundle.manifest().assets;
+    let output: u64 = assets.iter().map(|a| a.byte_length).sum();
+    let tiles = assets.iter().filter(|a| a.settings.horizon().is_some()).count();
+    Measured { tiles, seconds, peak_mib, output_mib: output as f64 / (1 << 20) as f64 }
 }
 
 /// Bakes the DEM in `scratch` whole with the library, in a child process under
@@ -125,7 +130,7 @@ fn bake_whole(scratch: &Path, n: u32, md: f32) -> Measured {
     let (seconds, peak_mib) = timed(&["--bake-whole-child".as_ref(), scratch.as_os_str(), md.to_string().as_ref()]);
     let bytes = std::fs::metadata(scratch.join("whole.raw")).expect("the whole map is written").len();
     assert_eq!(bytes, n as u64 * n as u64 * DIRECTIONS as u64 * 4);
-    Measured { seconds, peak_mib, output_mib: bytes as f64 / (1 << 20) as f64 }
+    Measured { tiles: 1, seconds, peak_mib, output_mib: bytes as f64 / (1 << 20) as f64 }
 }
 
 /// Runs this bench's executable with `args` under `/usr/bin/time`: wall seconds and peak RSS

@@ -53,7 +53,6 @@ fn tiles_equal_whole(name: &str, map: &Heightfield, params: &HorizonParams, tile
             let rect = (tx, ty, tile.min(w - tx), tile.min(h - ty));
             let place = TileWindow::new((w, h), rect, halo, params.edge);
             let window = cut(map, &place);
-            assert_eq!(horizon::window_of(map, &place), window, "{name}: window_of differs from the hand cut");
             let baked = horizon::bake_tile(&window, &place, params, &silent).unwrap();
             assert_eq!(baked.distance_scale, whole.distance_scale, "{name}");
             let (tw, th) = (rect.2 as usize, rect.3 as usize);

@@ -48,12 +48,6 @@ impl TileWindow {
         let (wy, wh) = axis(y, h, halo.1, map.1);
         TileWindow { map, tile, window: (wx, wy, ww, wh) }
     }
-
-    /// The map texel (column, row) that window texel (`x`, `y`) reads: wrapped into the map.
-    pub fn source(&self, x: u32, y: u32) -> (u32, u32) {
-        let wrap = |v: i64, n: u32| v.rem_euclid(n as i64) as u32;
-        (wrap(self.window.0 + x as i64, self.map.0), wrap(self.window.1 + y as i64, self.map.1))
-    }
 }
 
 /// The halo a tile needs on each side, in texels (columns, rows): every texel a ray within
@@ -144,27 +138,4 @@ fn covers((t, len): (u32, u32), (w, wlen): (i64, u32), halo: u32, map: u32, clam
     let before = w <= t - halo || (clamped && w == 0);
     let after = end + halo <= w_end || (clamped && w_end == map);
     len > 0 && end <= map && before && after
-}
-
-/// Reads the window of `place` from a whole map's samples: the samples a tile's bake gets,
-/// with the map's world units.
-pub fn window_of(map: &Heightfield, place: &TileWindow) -> Heightfield {
-    let (_, _, ww, wh) = place.window;
-    let mut samples = Vec::with_capacity(ww as usize * wh as usize);
-    for y in 0..wh {
-        for x in 0..ww {
-            let (u, v) = place.source(x, y);
-            samples.push(map.sample(u, v));
-        }
-    }
-    Heightfield {
-        width: ww,
-        height: wh,
-        samples,
-        texel_size: map.texel_size,
-        height_scale: map.height_scale,
-        height_offset: map.height_offset,
-        normalized: map.normalized,
-        source_channel: map.source_channel.clone(),
-    }
 }
