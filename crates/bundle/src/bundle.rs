@@ -1,10 +1,11 @@
 //! Opening a bundle and reading its payloads with sizes and hashes checked.
 
 use std::fs;
-use std::io::Read;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use crate::error::BundleError;
+use crate::files::read_limited;
 use crate::limits::Limits;
 use crate::manifest::{Asset, AssetKind, MANIFEST_FILE, Manifest, Payload, Settings};
 use crate::mesh::MeshData;
@@ -16,11 +17,30 @@ use crate::texture::{TextureData, TextureDesc, TextureDimension};
 /// Opening reads only `bundle.ron`; payloads are read on demand and each read checks the
 /// file's size and BLAKE3 against the manifest. Nothing here touches a GPU, so a game can open
 /// and decode a bundle on a worker thread.
+///
+/// While a `Bundle` (or a clone of it) lives it holds a shared lock on the bundle's
+/// [`READERS_LOCK_FILE`], when the directory has one: a writer replacing the manifest then
+/// keeps the payloads this manifest names until the next commit, instead of removing them at
+/// once (see [`crate::BundleWriter`]).
 #[derive(Clone, Debug)]
 pub struct Bundle {
     dir: PathBuf,
     manifest: Manifest,
     limits: Limits,
+    _reading: Option<Arc<fs::File>>,
+}
+
+/// The file readers hold a shared lock on while they use a manifest's payloads, and a writer
+/// locks exclusively to know that no reader can still hold the payloads it replaced.
+pub const READERS_LOCK_FILE: &str = ".hikage-readers.lock";
+
+/// A shared lock on the readers' lock file of `dir`, or `None` when there is no such file (a
+/// bundle from before it existed) or it cannot be opened or locked (a read-only copy, a file
+/// system without locks): then the reader relies on writers keeping one generation.
+pub(crate) fn reader_lock(dir: &Path) -> Option<fs::File> {
+    let file = crate::files::open_regular(&dir.join(READERS_LOCK_FILE)).ok()?;
+    file.lock_shared().ok()?;
+    Some(file)
 }
 
 impl Bundle {
@@ -34,6 +54,8 @@ impl Bundle {
     /// checks ids, file names and payload descriptions.
     pub fn open_with_limits(dir: &Path, limits: Limits) -> Result<Bundle, BundleError> {
         let path = dir.join(MANIFEST_FILE);
+        // Locked before the manifest is read: a writer seeing the lock held keeps its payloads.
+        let reading = reader_lock(dir).map(Arc::new);
         let text = read_limited(&path, limits.max_manifest_bytes, "manifest size")?;
         let text = String::from_utf8(text).map_err(|e| BundleError::ManifestSyntax {
             path: path.clone(),
@@ -53,7 +75,7 @@ impl Bundle {
         if let Some((asset, message)) = manifest_problems(&manifest, &limits).into_iter().next() {
             return Err(BundleError::InvalidAsset { path, asset, message });
         }
-        Ok(Bundle { dir: dir.to_path_buf(), manifest, limits })
+        Ok(Bundle { dir: dir.to_path_buf(), manifest, limits, _reading: reading })
     }
 
     /// The bundle directory.
@@ -116,23 +138,11 @@ impl Bundle {
     /// Reads and decodes a texture asset; the KTX2 header must agree with the manifest.
     pub fn read_texture(&self, id: &str) -> Result<TextureData, BundleError> {
         let asset = self.asset(id)?;
-        let Payload::Texture(desc) = &asset.payload else {
+        if asset.payload.texture().is_none() {
             return Err(self.not_a(asset, "texture"));
-        };
-        let bytes = self.read_payload(asset)?;
-        let path = self.payload_path(asset);
-        let mut tex = crate::ktx2_file::decode(&bytes, &path, &self.limits)?;
-        let mut declared = desc.clone();
-        declared.channels = tex.desc.channels.clone();
-        if declared != tex.desc {
-            return Err(BundleError::Payload {
-                path,
-                asset: asset.id.clone(),
-                message: format!("KTX2 header says {:?}, the manifest says {:?}", tex.desc, desc),
-            });
         }
-        tex.desc = desc.clone();
-        Ok(tex)
+        let bytes = self.read_payload(asset)?;
+        decode_texture(asset, &bytes, &self.payload_path(asset), &self.limits)
     }
 
     /// Reads a mesh asset; accessors are checked against the payload.
@@ -158,29 +168,39 @@ impl Bundle {
     }
 }
 
-/// Reads a file, refusing it before reading when it is larger than `limit`.
-pub(crate) fn read_limited(path: &Path, limit: u64, what: &str) -> Result<Vec<u8>, BundleError> {
-    let file = fs::File::open(path).map_err(|e| BundleError::io(path, e))?;
-    let len = file.metadata().map_err(|e| BundleError::io(path, e))?.len();
-    if len > limit {
-        return Err(BundleError::Limit { path: path.to_path_buf(), what: what.into(), value: len, limit });
-    }
-    let mut bytes = Vec::with_capacity(len as usize);
-    file.take(limit + 1).read_to_end(&mut bytes).map_err(|e| BundleError::io(path, e))?;
-    if bytes.len() as u64 > limit {
-        return Err(BundleError::Limit {
-            path: path.to_path_buf(),
-            what: what.into(),
-            value: bytes.len() as u64,
-            limit,
+/// Decodes the KTX2 payload `bytes` of a texture asset (read from `path`); its header must
+/// agree with the manifest entry.
+pub(crate) fn decode_texture(
+    asset: &Asset,
+    bytes: &[u8],
+    path: &Path,
+    limits: &Limits,
+) -> Result<TextureData, BundleError> {
+    let Payload::Texture(desc) = &asset.payload else {
+        return Err(BundleError::Payload {
+            path: path.into(),
+            asset: asset.id.clone(),
+            message: "not a texture".into(),
+        });
+    };
+    let mut tex = crate::ktx2_file::decode(bytes, path, limits)?;
+    let mut declared = desc.clone();
+    declared.channels = tex.desc.channels.clone();
+    if declared != tex.desc {
+        return Err(BundleError::Payload {
+            path: path.into(),
+            asset: asset.id.clone(),
+            message: format!("KTX2 header says {:?}, the manifest says {:?}", tex.desc, desc),
         });
     }
-    Ok(bytes)
+    tex.desc = desc.clone();
+    Ok(tex)
 }
 
 /// Problems visible from the manifest alone: ids, file names, duplicates, descriptions,
-/// kind/payload/settings agreement. Returns `(asset, message)` pairs.
-pub(crate) fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(String, String)> {
+/// kind/payload/settings agreement. Returns `(asset, message)` pairs; empty when a reader
+/// accepts every entry.
+pub fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(String, String)> {
     let mut problems = Vec::new();
     let mut ids = std::collections::BTreeSet::new();
     let mut files = std::collections::BTreeSet::new();

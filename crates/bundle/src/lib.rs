@@ -27,6 +27,7 @@
 
 mod bundle;
 mod error;
+pub mod files;
 pub mod inspect;
 pub mod ktx2_file;
 mod limits;
@@ -39,7 +40,7 @@ pub mod validate;
 mod version;
 mod writer;
 
-pub use bundle::Bundle;
+pub use bundle::{Bundle, READERS_LOCK_FILE};
 pub use error::BundleError;
 pub use limits::Limits;
 pub use manifest::{
@@ -49,7 +50,7 @@ pub use manifest::{
 pub use mesh::{Accessor, ComponentType, MeshData, MeshDesc};
 pub use names::{check_asset_id, is_valid_asset_id, payload_file_name};
 pub use texture::{Supercompression, TextureData, TextureDesc, TextureDimension, TextureFormat};
-pub use validate::{Problem, Report, validate};
+pub use validate::{Problem, Report, check_payload, validate};
 pub use version::FormatVersion;
 pub use writer::{BundleWriter, CommitSummary, LOCK_FILE, WriteMode};
 

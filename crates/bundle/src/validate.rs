@@ -4,11 +4,13 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use crate::bundle::{Bundle, manifest_problems};
+use crate::bundle::Bundle;
+pub use crate::bundle::manifest_problems;
 use crate::error::BundleError;
 use crate::limits::Limits;
 use crate::manifest::{Asset, Payload};
-use crate::mesh::{ComponentType, read_elements, read_uint};
+use crate::mesh::{ComponentType, MeshDesc, read_elements, read_uint};
+use crate::texture::TextureData;
 
 /// One thing wrong with a bundle.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
@@ -55,7 +57,7 @@ pub fn validate_with_limits(dir: &Path, limits: Limits) -> Result<Report, Bundle
     let bundle = match Bundle::open_with_limits(dir, limits) {
         Ok(b) => b,
         Err(BundleError::InvalidAsset { .. }) => {
-            let text = crate::bundle::read_limited(&manifest_path, limits.max_manifest_bytes, "manifest size")?;
+            let text = crate::files::read_limited(&manifest_path, limits.max_manifest_bytes, "manifest size")?;
             let manifest = crate::Manifest::parse(&String::from_utf8_lossy(&text), &manifest_path)?;
             let problems = manifest_problems(&manifest, &limits)
                 .into_iter()
@@ -82,36 +84,51 @@ pub fn validate_with_limits(dir: &Path, limits: Limits) -> Result<Report, Bundle
 }
 
 fn check_asset(bundle: &Bundle, asset: &Asset) -> Result<(), BundleError> {
-    let path = bundle.payload_path(asset);
-    let fail = |message: String| BundleError::Payload { path: path.clone(), asset: asset.id.clone(), message };
+    let bytes = bundle.read_payload(asset)?;
+    check_payload(asset, &bytes, &bundle.payload_path(asset), bundle.limits())
+}
+
+/// Checks the payload `bytes` of `asset` (from `path`) the way a reader relies on it: a texture
+/// decodes, its KTX2 header agrees with the manifest and every float texel is finite; a mesh's
+/// accessors lie inside the bytes, its indices below the vertex count, its floats finite. The
+/// one check [`validate`] and every writer ([`crate::BundleWriter`]) apply, so a bundle that was
+/// committed always validates.
+pub fn check_payload(asset: &Asset, bytes: &[u8], path: &Path, limits: &Limits) -> Result<(), BundleError> {
+    let fail = |message: String| BundleError::Payload { path: path.to_path_buf(), asset: asset.id.clone(), message };
     match &asset.payload {
-        Payload::Texture(_) => {
-            let tex = bundle.read_texture(&asset.id)?;
-            if let Some((level, slice, row, col, ch)) = tex.first_non_finite() {
-                return Err(fail(format!(
-                    "texel at level {level}, slice {slice}, row {row}, column {col}, channel {ch} is not finite"
-                )));
+        Payload::Texture(_) => check_texture(&crate::bundle::decode_texture(asset, bytes, path, limits)?).map_err(fail),
+        Payload::Mesh(desc) => {
+            desc.check(bytes.len() as u64).map_err(fail)?;
+            check_mesh(desc, bytes).map_err(fail)
+        }
+    }
+}
+
+/// The first non-finite texel of a decoded texture, as a message.
+pub(crate) fn check_texture(tex: &TextureData) -> Result<(), String> {
+    match tex.first_non_finite() {
+        Some((level, slice, row, col, ch)) => {
+            Err(format!("texel at level {level}, slice {slice}, row {row}, column {col}, channel {ch} is not finite"))
+        }
+        None => Ok(()),
+    }
+}
+
+/// An index at or past the vertex count, or a float attribute that is not finite, as a message
+/// (the accessors already checked against `bytes`).
+pub(crate) fn check_mesh(desc: &MeshDesc, bytes: &[u8]) -> Result<(), String> {
+    if let Some(ix) = &desc.indices {
+        for (i, e) in read_elements(bytes, ix).enumerate() {
+            let v = read_uint(e, ix.component);
+            if v >= desc.vertex_count {
+                return Err(format!("index {i} is {v}, expected below the vertex count {}", desc.vertex_count));
             }
         }
-        Payload::Mesh(desc) => {
-            let mesh = bundle.read_mesh(&asset.id)?;
-            if let Some(ix) = &desc.indices {
-                for (i, e) in read_elements(&mesh.bytes, ix).enumerate() {
-                    let v = read_uint(e, ix.component);
-                    if v >= desc.vertex_count {
-                        return Err(fail(format!(
-                            "index {i} is {v}, expected below the vertex count {}",
-                            desc.vertex_count
-                        )));
-                    }
-                }
-            }
-            for a in desc.attributes.iter().filter(|a| a.component == ComponentType::F32) {
-                for (i, e) in read_elements(&mesh.bytes, a).enumerate() {
-                    if e.chunks_exact(4).any(|c| !f32::from_le_bytes(c.try_into().unwrap()).is_finite()) {
-                        return Err(fail(format!("attribute `{}` element {i} is not finite", a.name)));
-                    }
-                }
+    }
+    for a in desc.attributes.iter().filter(|a| a.component == ComponentType::F32) {
+        for (i, e) in read_elements(bytes, a).enumerate() {
+            if e.chunks_exact(4).any(|c| !f32::from_le_bytes([c[0], c[1], c[2], c[3]]).is_finite()) {
+                return Err(format!("attribute `{}` element {i} is not finite", a.name));
             }
         }
     }

@@ -6,14 +6,21 @@
 //!
 //! 1. re-reads the manifest as it is now (another writer may have committed since this one
 //!    opened) and applies this writer's changes to it — in [`WriteMode::Update`] its own
-//!    additions, replacements and removals; in [`WriteMode::Replace`] exactly its own assets;
-//! 2. renames its staged payloads to their content-derived names (a name never holds other
-//!    bytes, so a reader of the current manifest is never disturbed) and checks that every
-//!    payload the new manifest names is in place;
+//!    additions, replacements and removals; in [`WriteMode::Replace`] exactly its own assets —
+//!    then checks the result as a reader will (ids, file names, descriptions, the number of
+//!    assets and the manifest's size against [`Limits`]): a commit never leaves a bundle that
+//!    [`crate::validate()`] or the next bake would refuse;
+//! 2. records the payloads it is about to place in `.hikage-retired` (so a commit killed from
+//!    here on leaves nothing a later commit cannot name), renames its staged payloads to their
+//!    content-derived names (a name never holds other bytes, so a reader of the current manifest
+//!    is never disturbed) and checks that every payload the new manifest names is in place;
 //! 3. writes the manifest to a temporary file, syncs it and renames it over `bundle.ron`;
-//! 4. removes the payloads neither the new manifest nor the one it replaced names: one
-//!    generation late, so a reader that opened the previous manifest still finds its payloads
-//!    (readers retry once more against the newest manifest if two commits pass during a read).
+//! 4. removes the payloads the replaced manifest named and the new one does not — at once when
+//!    no reader holds the bundle's [`READERS_LOCK_FILE`] (every [`Bundle`] holds it shared while
+//!    it lives), else one commit later, for a reader that opened the replaced manifest (readers
+//!    retry against the newest manifest if two commits pass during a read). Only files a
+//!    manifest or `.hikage-retired` of this bundle named are ever removed: a file of the user's
+//!    that merely looks like a payload stays.
 //!
 //! A process killed at any point leaves the old or the new manifest, each with all its
 //! payloads; a failed write leaves the old one untouched. Each writer holds a lock on a file of
@@ -31,12 +38,14 @@ use std::fs;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use crate::bundle::Bundle;
+use crate::bundle::{Bundle, READERS_LOCK_FILE, manifest_problems, reader_lock};
 use crate::error::BundleError;
+use crate::limits::Limits;
 use crate::manifest::{Asset, MANIFEST_FILE, Manifest, Payload, Settings};
 use crate::mesh::MeshData;
 use crate::names::{check_asset_id, looks_like_payload, payload_file_name};
 use crate::texture::TextureData;
+use crate::validate::{check_mesh, check_payload, check_texture};
 
 const TEMP_PREFIX: &str = ".hikage-tmp-";
 
@@ -45,6 +54,10 @@ pub const LOCK_FILE: &str = ".hikage.lock";
 
 /// Prefix of a writer's own lock file, held while the writer lives.
 const WRITER_PREFIX: &str = ".hikage-writer-";
+
+/// The payloads a commit placed or replaced that no manifest may name any more: removed by a
+/// later commit once no reader can hold them. One file name per line.
+pub const RETIRED_FILE: &str = ".hikage-retired";
 
 /// What the new manifest is made of.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -84,6 +97,9 @@ pub struct BundleWriter {
     tag: String,
     /// This writer's own lock, held while it lives.
     alive: Option<(fs::File, PathBuf)>,
+    /// A shared lock on the readers' lock file while the writer may read payloads of the
+    /// previous manifest (to keep them).
+    reading: Option<fs::File>,
 }
 
 impl BundleWriter {
@@ -101,6 +117,8 @@ impl BundleWriter {
 
     fn open_inner(dir: &Path, mode: WriteMode, ignore_bad: bool) -> Result<BundleWriter, BundleError> {
         fs::create_dir_all(dir).map_err(|e| BundleError::io(dir, e))?;
+        // The writer reads the previous payloads it keeps, so it is a reader too.
+        let reading = reader_lock(dir);
         let previous = current_manifest(dir, ignore_bad)?;
         // The writer's lock appears under its name only once held: a sweep that finds it free
         // may take its writer for dead.
@@ -122,6 +140,7 @@ impl BundleWriter {
             staged: BTreeMap::new(),
             tag,
             alive: Some((file, path)),
+            reading,
         })
     }
 
@@ -142,7 +161,7 @@ impl BundleWriter {
         if asset.input_hash != input_hash {
             return None;
         }
-        let bytes = fs::read(self.dir.join(&asset.file)).ok()?;
+        let bytes = crate::files::read_limited(&self.dir.join(&asset.file), asset.byte_length, "payload size").ok()?;
         (bytes.len() as u64 == asset.byte_length && blake3::hash(&bytes).to_hex().as_str() == asset.blake3)
             .then(|| asset.clone())
     }
@@ -172,12 +191,14 @@ impl BundleWriter {
                 asset.blake3
             )));
         }
-        if !matches!(ext, "ktx2" | "bin") || asset.file != payload_file_name(&asset.id, &hash, ext) {
+        let expected_ext = if asset.payload.mesh().is_some() { "bin" } else { "ktx2" };
+        if ext != expected_ext || asset.file != payload_file_name(&asset.id, &hash, ext) {
             return Err(BundleError::InvalidData(format!(
                 "asset `{}`: unexpected payload file name `{}`",
                 asset.id, asset.file
             )));
         }
+        check_payload(&asset, bytes, &self.dir.join(&asset.file), &Limits::default())?;
         if !self.staged.contains_key(&asset.file) {
             let temp = stage(&self.dir, &self.tag, &asset.file, bytes)?;
             self.staged.insert(asset.file.clone(), temp);
@@ -194,6 +215,7 @@ impl BundleWriter {
         input_hash: &str,
         texture: &TextureData,
     ) -> Result<Asset, BundleError> {
+        check_texture(texture).map_err(|m| BundleError::InvalidData(format!("asset `{id}`: {m}")))?;
         let bytes = crate::ktx2_file::encode(texture, crate::GENERATOR)?;
         self.put_payload(id, settings, input_hash, Payload::Texture(texture.desc.clone()), &bytes, "ktx2")
     }
@@ -206,7 +228,10 @@ impl BundleWriter {
         input_hash: &str,
         mesh: &MeshData,
     ) -> Result<Asset, BundleError> {
-        mesh.desc.check(mesh.bytes.len() as u64).map_err(BundleError::InvalidData)?;
+        mesh.desc
+            .check(mesh.bytes.len() as u64)
+            .and_then(|()| check_mesh(&mesh.desc, &mesh.bytes))
+            .map_err(|m| BundleError::InvalidData(format!("asset `{id}`: {m}")))?;
         self.put_payload(id, settings, input_hash, Payload::Mesh(mesh.desc.clone()), &mesh.bytes, "bin")
     }
 
@@ -272,12 +297,7 @@ impl BundleWriter {
     /// writer holds the lock (so a command line can say why it pauses).
     pub fn commit_waiting(mut self, waiting: &dyn Fn(&Path)) -> Result<CommitSummary, BundleError> {
         let lock_path = self.dir.join(LOCK_FILE);
-        let lock = fs::OpenOptions::new()
-            .create(true)
-            .truncate(false)
-            .write(true)
-            .open(&lock_path)
-            .map_err(|e| BundleError::io(&lock_path, e))?;
+        let lock = open_lock_file(&lock_path)?;
         match lock.try_lock() {
             Ok(()) => {}
             Err(fs::TryLockError::WouldBlock) => {
@@ -287,66 +307,184 @@ impl BundleWriter {
             Err(fs::TryLockError::Error(e)) => return Err(BundleError::io(&lock_path, e)),
         }
 
-        // 1. The manifest as it is now, with this writer's changes.
+        // 1. The manifest as it is now, with this writer's changes, checked as a reader will.
         let current = current_manifest(&self.dir, self.ignore_bad)?;
         let new = self.apply(current.as_ref());
+        let text = checked_manifest_text(&self.dir, &new)?;
 
-        // 2. Staged payloads to their names, every payload the new manifest names in place;
-        // 3. the manifest. On a failure the payloads moved in are taken out again: the bundle
-        // stays as it was.
+        // 2. Staged payloads recorded, then to their names, every payload the new manifest
+        // names in place; 3. the manifest. On a failure the payloads moved in are taken out
+        // again: the bundle stays as it was.
+        let named_now: BTreeSet<String> =
+            current.iter().flat_map(|m| m.assets.iter()).map(|a| a.file.clone()).collect();
+        let recorded = read_retired(&self.dir);
+        let mut retired = recorded.clone();
+        let placing: BTreeSet<String> = self.staged.keys().filter(|f| !named_now.contains(*f)).cloned().collect();
+        if !placing.is_subset(&retired) {
+            retired.extend(placing);
+            write_retired(&self.dir, &self.tag, &retired)?;
+        }
+        // The readers' lock exists before the manifest it guards, so every reader of it can lock;
+        // readers of a manifest from before it existed could not, so this commit keeps their
+        // payloads.
+        let readers_path = self.dir.join(READERS_LOCK_FILE);
+        let readers_lock_created = match fs::OpenOptions::new().write(true).create_new(true).open(&readers_path) {
+            Ok(_) => true,
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => false,
+            Err(e) => return Err(BundleError::io(&readers_path, e)),
+        };
         let mut moved = Vec::new();
-        let written = self.place_payloads(&new, &mut moved).and_then(|()| self.write_manifest(&new));
+        let written = self.place_payloads(&new, &mut moved).and_then(|()| self.write_manifest(&text));
         let manifest_written = match written {
             Ok(w) => w,
             Err(e) => {
-                let named: BTreeSet<&str> =
-                    current.iter().flat_map(|m| m.assets.iter()).map(|a| a.file.as_str()).collect();
-                for file in moved.iter().filter(|f| !named.contains(f.as_str())) {
+                for file in moved.iter().filter(|f| !named_now.contains(*f)) {
                     let _ = fs::remove_file(self.dir.join(file));
+                }
+                if retired != recorded {
+                    let _ = write_retired(&self.dir, &self.tag, &recorded);
                 }
                 return Err(e);
             }
         };
 
-        // 4. Payloads of neither generation, and what killed writers left.
-        let keep: BTreeSet<&str> =
-            new.assets.iter().chain(current.iter().flat_map(|m| m.assets.iter())).map(|a| a.file.as_str()).collect();
+        // 4. Retired payloads: the replaced manifest's at once when no reader can hold them,
+        // else one commit later; and what killed writers left. The commit has happened: a file
+        // that cannot be removed now stays recorded for the next one.
+        let new_files: BTreeSet<String> = new.assets.iter().map(|a| a.file.clone()).collect();
+        drop(self.reading.take());
+        let readers = crate::files::open_regular(&readers_path).ok();
+        let no_reader = !readers_lock_created && readers.as_ref().is_some_and(|f| f.try_lock().is_ok());
+        let mut stale: BTreeSet<String> = retired.iter().filter(|f| !named_now.contains(*f)).cloned().collect();
+        let mut keep_recorded: BTreeSet<String> = BTreeSet::new();
+        for file in named_now.difference(&new_files) {
+            if no_reader {
+                stale.insert(file.clone());
+            } else {
+                keep_recorded.insert(file.clone());
+            }
+        }
         let mut removed = Vec::new();
-        let names: Vec<String> = fs::read_dir(&self.dir)
-            .map_err(|e| BundleError::io(&self.dir, e))?
-            .map(|e| e.map(|e| e.file_name().to_string_lossy().into_owned()))
-            .collect::<Result<_, _>>()
-            .map_err(|e| BundleError::io(&self.dir, e))?;
+        for name in stale.into_iter().filter(|f| !new_files.contains(f)) {
+            match fs::remove_file(self.dir.join(&name)) {
+                Ok(()) => removed.push(name),
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                Err(_) => {
+                    keep_recorded.insert(name);
+                }
+            }
+        }
+        drop(readers);
+        if keep_recorded != retired {
+            // Best effort: a record that cannot be written is rewritten by the next commit.
+            let _ = write_retired(&self.dir, &self.tag, &keep_recorded);
+        }
+        removed.extend(self.sweep_dead_writers());
+        removed.sort();
+        Ok(CommitSummary { manifest_written, removed })
+    }
+
+    /// Removes the staged files and locks of writers that were killed; returns their names.
+    fn sweep_dead_writers(&self) -> Vec<String> {
+        let Ok(entries) = fs::read_dir(&self.dir) else { return Vec::new() };
         let mut dead = BTreeMap::new();
-        for name in names {
-            let stale = if looks_like_payload(&name) {
-                !keep.contains(name.as_str())
-            } else if let Some(tag) = name.strip_prefix(TEMP_PREFIX).and_then(|rest| rest.split('.').next()) {
+        let mut removed = Vec::new();
+        for name in entries.flatten().map(|e| e.file_name().to_string_lossy().into_owned()) {
+            let stale = if let Some(tag) = name.strip_prefix(TEMP_PREFIX).and_then(|rest| rest.split('.').next()) {
                 let tag = tag.split_once("-s").map_or(tag, |(tag, _)| tag);
                 tag != self.tag && *dead.entry(tag.to_string()).or_insert_with(|| writer_is_dead(&self.dir, tag))
             } else if let Some(tag) = name.strip_prefix(WRITER_PREFIX).and_then(|rest| rest.strip_suffix(".lock")) {
                 tag != self.tag && *dead.entry(tag.to_string()).or_insert_with(|| writer_is_dead(&self.dir, tag))
             } else if name.starts_with(WRITER_PREFIX) && name.ends_with(".lock.new") {
                 // A writer killed between creating its lock and naming it: an hour later.
-                fs::metadata(self.dir.join(&name))
+                fs::symlink_metadata(self.dir.join(&name))
                     .and_then(|m| m.modified())
                     .is_ok_and(|t| t.elapsed().is_ok_and(|age| age > std::time::Duration::from_secs(3600)))
             } else {
                 false
             };
-            if stale {
-                let path = self.dir.join(&name);
-                match fs::remove_file(&path) {
-                    Ok(()) => removed.push(name),
-                    // Another writer's sweep got there first.
-                    Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-                    Err(e) => return Err(BundleError::io(&path, e)),
-                }
+            // Another writer's sweep may get there first; what cannot go now goes next time.
+            if stale && fs::remove_file(self.dir.join(&name)).is_ok() {
+                removed.push(name);
             }
         }
-        removed.sort();
-        Ok(CommitSummary { manifest_written, removed })
+        removed
     }
+}
+
+/// The text of `manifest` when a reader would accept it: every asset well-formed (ids, file
+/// names, descriptions, settings) and the manifest within the default [`Limits`] on assets and
+/// bytes; otherwise an error naming the first problem, before anything is written.
+fn checked_manifest_text(dir: &Path, manifest: &Manifest) -> Result<String, BundleError> {
+    let limits = Limits::default();
+    let path = dir.join(MANIFEST_FILE);
+    if let Some((asset, message)) = manifest_problems(manifest, &limits).into_iter().next() {
+        return Err(BundleError::InvalidAsset { path, asset, message });
+    }
+    if manifest.assets.len() > limits.max_assets {
+        return Err(BundleError::Limit {
+            path,
+            what: "the new manifest's asset count (readers accept no more)".into(),
+            value: manifest.assets.len() as u64,
+            limit: limits.max_assets as u64,
+        });
+    }
+    let text = manifest.to_ron();
+    if text.len() as u64 > limits.max_manifest_bytes {
+        return Err(BundleError::Limit {
+            path,
+            what: format!(
+                "the new manifest's size in bytes for {} assets (readers accept no more)",
+                manifest.assets.len()
+            ),
+            value: text.len() as u64,
+            limit: limits.max_manifest_bytes,
+        });
+    }
+    Ok(text)
+}
+
+/// The payload names recorded in `.hikage-retired`; names that are not plain payload names of
+/// this directory are ignored (the record is never trusted to name anything else).
+fn read_retired(dir: &Path) -> BTreeSet<String> {
+    let limit = Limits::default().max_manifest_bytes;
+    let Ok(bytes) = crate::files::read_limited(&dir.join(RETIRED_FILE), limit, "retired record size") else {
+        return BTreeSet::new();
+    };
+    String::from_utf8_lossy(&bytes).lines().filter(|l| looks_like_payload(l)).map(str::to_string).collect()
+}
+
+/// Replaces `.hikage-retired` with `names` (through a synced temporary file and a rename), or
+/// removes it when there are none.
+fn write_retired(dir: &Path, tag: &str, names: &BTreeSet<String>) -> Result<(), BundleError> {
+    let path = dir.join(RETIRED_FILE);
+    if names.is_empty() {
+        return match fs::remove_file(&path) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(BundleError::io(&path, e)),
+            _ => Ok(()),
+        };
+    }
+    let text: String = names.iter().map(|n| format!("{n}\n")).collect();
+    let temp = stage(dir, tag, RETIRED_FILE, text.as_bytes())?;
+    fs::rename(&temp, &path).and_then(|()| sync_dir(dir)).map_err(|e| {
+        let _ = fs::remove_file(&temp);
+        BundleError::io(&path, e)
+    })
+}
+
+/// Opens (creating it if missing) a lock file; anything but a regular file there (a FIFO would
+/// block the open) is refused.
+fn open_lock_file(path: &Path) -> Result<fs::File, BundleError> {
+    match fs::symlink_metadata(path) {
+        Ok(m) if !m.is_file() => {
+            return Err(BundleError::io(
+                path,
+                std::io::Error::new(std::io::ErrorKind::InvalidInput, "expected a regular lock file"),
+            ));
+        }
+        _ => {}
+    }
+    fs::OpenOptions::new().create(true).truncate(false).write(true).open(path).map_err(|e| BundleError::io(path, e))
 }
 
 impl Drop for BundleWriter {
@@ -385,12 +523,12 @@ fn writer_is_dead(dir: &Path, tag: &str) -> bool {
 }
 
 impl BundleWriter {
-    /// Writes `new` over `bundle.ron` through a synced temporary file and a rename, unless the
+    /// Writes `text` over `bundle.ron` through a synced temporary file and a rename, unless the
     /// file already holds those bytes; true when it wrote.
-    fn write_manifest(&self, new: &Manifest) -> Result<bool, BundleError> {
-        let text = new.to_ron();
+    fn write_manifest(&self, text: &str) -> Result<bool, BundleError> {
         let path = self.dir.join(MANIFEST_FILE);
-        if fs::read(&path).is_ok_and(|old| old == text.as_bytes()) {
+        if crate::files::read_limited(&path, text.len() as u64, "manifest size").is_ok_and(|old| old == text.as_bytes())
+        {
             return Ok(false);
         }
         let temp = stage(&self.dir, &self.tag, MANIFEST_FILE, text.as_bytes())?;
