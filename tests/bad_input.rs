@@ -439,30 +439,14 @@ fn hostile_sizes_are_refused_in_little_memory() {
     hair[8..12].copy_from_slice(&4_000_000_000u32.to_le_bytes());
     dir.write("huge.hair", &hair);
 
-    let time = std::path::Path::new("/usr/bin/time");
     for (args, needle) in [
         (vec!["validate", "ten_million"], "manifest size"),
         (vec!["validate", "huge.ron"], "100000"),
         (vec!["validate", "ktx"], "level 0 claims 1099511627776 uncompressed bytes"),
         (vec!["strands", "huge.hair", "--out", "b"], "4000000000"),
     ] {
-        let (status, stderr, peak_kib) = if time.exists() {
-            let out = std::process::Command::new(time)
-                .args(["-f", "PEAK_KIB %M"])
-                .arg(env!("CARGO_BIN_EXE_hikage"))
-                .args(&args)
-                .current_dir(dir.path("."))
-                .output()
-                .unwrap();
-            let err = String::from_utf8_lossy(&out.stderr).into_owned();
-            let peak = err.lines().find_map(|l| l.strip_prefix("PEAK_KIB ")).and_then(|v| v.trim().parse::<u64>().ok());
-            // `validate` reports problems on stdout.
-            (out.status, format!("{}{err}", String::from_utf8_lossy(&out.stdout)), peak)
-        } else {
-            eprintln!("/usr/bin/time not installed: peak memory not measured");
-            let out = dir.run_expecting(&args, 1);
-            (out.status, format!("{}{}", stdout(&out), stderr(&out)), None)
-        };
+        let (out, stderr, peak_kib) = dir.run_measured(&args);
+        let status = out.status;
         assert_eq!(status.code(), Some(1), "{args:?}: {stderr}");
         assert!(stderr.contains(needle), "{args:?}: {stderr}");
         if let Some(kib) = peak_kib {

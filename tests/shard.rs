@@ -63,7 +63,7 @@ fn three_shards_merge_into_the_one_machine_bundle() {
 #[test]
 fn shard_indices_come_from_the_command_line_or_the_environment() {
     use hikage_bake::shard::{Shard, shard_of};
-    assert_eq!(Shard::parse("2/5"), Ok(Shard { index: 2, count: 5 }));
+    assert_eq!(Shard::parse("2/5"), Ok(Shard::new(2, 5).unwrap()));
     for bad in ["5/5", "x/3", "1/0", "3", "1/y"] {
         assert!(Shard::parse(bad).is_err(), "{bad}");
     }

@@ -13,5 +13,6 @@ mod gpu_fit;
 mod gpu_hair;
 mod gpu_horizon;
 mod gpu_relief;
+mod hostile;
 mod shard;
 mod tiles;

@@ -92,6 +92,50 @@ impl Dir {
         out
     }
 
+    /// Runs `hikage args` and waits at most `seconds` for it: a run still going then is killed
+    /// and the test fails with "hung" (a guard against reads that never end, not a timing).
+    pub fn run_guarded(&self, args: &[&str], seconds: u64) -> Output {
+        use std::process::Stdio;
+        let mut child = self.command(args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(seconds);
+        while child.try_wait().unwrap().is_none() {
+            if std::time::Instant::now() > deadline {
+                let _ = child.kill();
+                let out = child.wait_with_output().unwrap();
+                panic!("{}", self.explain(args, &out, &format!("hung: still running after {seconds} s")));
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let out = child.wait_with_output().unwrap();
+        if String::from_utf8_lossy(&out.stderr).contains("panicked") {
+            panic!("{}", self.explain(args, &out, "no panic"));
+        }
+        out
+    }
+
+    /// Runs `hikage args` under `/usr/bin/time` (installed by `.ci/run`): the output, with
+    /// stdout and stderr joined, and the peak resident memory in KiB when it could be measured.
+    pub fn run_measured(&self, args: &[&str]) -> (Output, String, Option<u64>) {
+        let time = Path::new("/usr/bin/time");
+        if !time.exists() {
+            eprintln!("/usr/bin/time not installed: peak memory not measured");
+            let out = self.command(args).output().unwrap();
+            let text = format!("{}{}", stdout(&out), stderr(&out));
+            return (out, text, None);
+        }
+        let out = Command::new(time)
+            .args(["-f", "PEAK_KIB %M"])
+            .arg(env!("CARGO_BIN_EXE_hikage"))
+            .args(args)
+            .current_dir(&self.root)
+            .output()
+            .unwrap();
+        let err = stderr(&out);
+        let peak = err.lines().find_map(|l| l.strip_prefix("PEAK_KIB ")).and_then(|v| v.trim().parse::<u64>().ok());
+        let text = format!("{}{err}", stdout(&out));
+        (out, text, peak)
+    }
+
     /// A report of a command's run for assertion messages.
     pub fn explain(&self, args: &[&str], out: &Output, expectation: &str) -> String {
         format!(

@@ -3,6 +3,8 @@
 //! Thin by design: parse arguments, call `hikage-bake` / `hikage-bundle`, report. Exit codes:
 //! 0 success, 1 invalid input or failed validation, 2 usage error, 3 I/O error.
 
+#[macro_use]
+mod output;
 mod progress;
 
 use std::path::{Path, PathBuf};
@@ -56,7 +58,8 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         cache: Option<PathBuf>,
         /// The cache's size bound, GiB; the least recently used entries go first.
-        #[arg(long, value_name = "GIB", default_value_t = 20)]
+        #[arg(long, value_name = "GIB", default_value_t = hikage_bake::cache::DEFAULT_MAX_GIB,
+              value_parser = clap::value_parser!(u64).range(0..=hikage_bake::cache::MAX_GIB))]
         cache_max_gib: u64,
     },
     /// Merge the partial bundles of every shard of one pipeline into OUT: the bundle one
@@ -68,6 +71,9 @@ enum Command {
         /// The partial bundles, one per shard.
         #[arg(required = true)]
         parts: Vec<PathBuf>,
+        /// Replace an OUT whose manifest cannot be read.
+        #[arg(long)]
+        force: bool,
     },
     /// Validate a bundle directory, or a pipeline file without baking it.
     #[command(after_help = EXIT_CODES)]
@@ -210,7 +216,7 @@ fn main() -> ExitCode {
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => {
-            eprintln!("error: {:#}", f.error);
+            output::emit_err(&format!("error: {:#}", f.error));
             ExitCode::from(f.code)
         }
     }
@@ -219,16 +225,17 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> Result<(), Failure> {
     match cli.command {
         Command::Bake { pipeline, force, jobs, shard, cache, cache_max_gib } => {
-            let cache = match cache {
-                Some(dir) => Some(
-                    Cache::open(&dir, cache_max_gib << 30)
-                        .with_context(|| format!("opening the cache {}", dir.display()))?,
-                ),
-                None => None,
-            };
+            // The cache is an optimisation: one that cannot be opened is a warning.
+            let cache = cache.and_then(|dir| match Cache::open(&dir, cache_max_gib) {
+                Ok(c) => Some(c),
+                Err(e) => {
+                    output::emit_err(&format!("warning: the cache is not used: {e}"));
+                    None
+                }
+            });
             bake(&pipeline, force, jobs, shard, cache)
         }
-        Command::Merge { out, parts } => merge(&out, &parts),
+        Command::Merge { out, parts, force } => merge(&out, &parts, force),
         Command::Validate { path, format } => validate(&path, format),
         Command::Inspect { bundle, format } => inspect(&bundle, format),
         Command::Export { bundle, asset, out, gltf, raw, channel } => match (out, gltf) {
@@ -273,13 +280,14 @@ fn one_shot(job: Job, target: &OneShot) -> Result<(), Failure> {
         .with_context(|| format!("baking `{}` into {}", job.baker().id(), out.display()));
     observer.finish();
     let report = report?;
-    println!("{}: baked {}, skipped {}", report.bundle.display(), report.baked.len(), report.skipped.len());
+    out!("{}: baked {}, skipped {}", report.bundle.display(), report.baked.len(), report.skipped.len());
     Ok(())
 }
 
-fn merge(out: &Path, parts: &[PathBuf]) -> Result<(), Failure> {
-    let report = hikage_bake::shard::merge(out, parts).with_context(|| format!("merging into {}", out.display()))?;
-    println!("{}: merged {} assets from {} parts", out.display(), report.assets, report.parts.len());
+fn merge(out: &Path, parts: &[PathBuf], force: bool) -> Result<(), Failure> {
+    let report =
+        hikage_bake::shard::merge(out, parts, force).with_context(|| format!("merging into {}", out.display()))?;
+    out!("{}: merged {} assets from {} parts", out.display(), report.assets, report.parts.len());
     Ok(())
 }
 
@@ -295,7 +303,7 @@ fn bake(
     let report = run_pipeline(pipeline, &options).with_context(|| format!("baking {}", pipeline.display()));
     observer.finish();
     let report = report?;
-    println!(
+    out!(
         "{}: baked {}, skipped {}{}{}",
         report.bundle.display(),
         report.baked.len(),
@@ -318,13 +326,13 @@ fn validate(path: &Path, format: OutputFormat) -> Result<(), Failure> {
     let report = match (report, format) {
         (Ok(r), _) => r,
         (Err(e), OutputFormat::Json) => {
-            println!("{}", serde_json::json!({ "valid": false, "error": format!("{:#}", e) }));
+            out!("{}", serde_json::json!({ "valid": false, "error": format!("{:#}", e) }));
             return Err(e.into());
         }
         (Err(e), OutputFormat::Text) => return Err(e.into()),
     };
     match format {
-        OutputFormat::Json => println!(
+        OutputFormat::Json => out!(
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
                 "valid": report.is_valid(),
@@ -334,10 +342,10 @@ fn validate(path: &Path, format: OutputFormat) -> Result<(), Failure> {
         ),
         OutputFormat::Text => {
             for p in &report.problems {
-                println!("{}: asset `{}`: {}", p.file.display(), p.asset, p.message);
+                out!("{}: asset `{}`: {}", p.file.display(), p.asset, p.message);
             }
             if report.is_valid() {
-                println!("{}: valid ({} assets)", path.display(), report.assets);
+                out!("{}: valid ({} assets)", path.display(), report.assets);
             }
         }
     }
@@ -357,7 +365,7 @@ fn validate_pipeline(path: &Path, format: OutputFormat) -> Result<(), Failure> {
     observer.finish();
     match (check, format) {
         (Ok(c), OutputFormat::Json) => {
-            println!(
+            out!(
                 "{}",
                 serde_json::to_string_pretty(
                     &serde_json::json!({ "valid": true, "jobs": c.jobs, "inputs": c.inputs })
@@ -366,11 +374,11 @@ fn validate_pipeline(path: &Path, format: OutputFormat) -> Result<(), Failure> {
             Ok(())
         }
         (Ok(c), OutputFormat::Text) => {
-            println!("{}: valid ({} jobs, {} inputs)", path.display(), c.jobs.len(), c.inputs.len());
+            out!("{}: valid ({} jobs, {} inputs)", path.display(), c.jobs.len(), c.inputs.len());
             Ok(())
         }
         (Err(e), OutputFormat::Json) => {
-            println!("{}", serde_json::json!({ "valid": false, "error": format!("{:#}", e) }));
+            out!("{}", serde_json::json!({ "valid": false, "error": format!("{:#}", e) }));
             Err(e.into())
         }
         (Err(e), OutputFormat::Text) => Err(e.into()),
@@ -381,12 +389,12 @@ fn inspect(dir: &Path, format: OutputFormat) -> Result<(), Failure> {
     let bundle = Bundle::open(dir).with_context(|| format!("opening {}", dir.display()))?;
     let summary = hikage_bundle::inspect::summarize(bundle.manifest());
     match format {
-        OutputFormat::Json => println!("{}", serde_json::to_string_pretty(&summary)?),
+        OutputFormat::Json => out!("{}", serde_json::to_string_pretty(&summary)?),
         OutputFormat::Text => {
-            println!("{} — format {}, written by {}", dir.display(), summary.format, summary.generator);
+            out!("{} — format {}, written by {}", dir.display(), summary.format, summary.generator);
             for a in &summary.assets {
                 let dims = a.dimensions.iter().map(u64::to_string).collect::<Vec<_>>().join("×");
-                println!(
+                out!(
                     "  {:<28} {:<12} {:<12} {:<8} {:<16} {:>10} B  [{}]",
                     a.id,
                     a.kind,
@@ -406,7 +414,7 @@ fn export_mesh(dir: &Path, asset: &str, out: &Path) -> Result<(), Failure> {
     let bundle = Bundle::open(dir).with_context(|| format!("opening {}", dir.display()))?;
     let (vertices, indices) = export_gltf(&bundle, asset, out)
         .with_context(|| format!("exporting `{asset}` from {} as glTF", dir.display()))?;
-    println!("{}: {vertices} vertices, {indices} indices", out.display());
+    out!("{}: {vertices} vertices, {indices} indices", out.display());
     Ok(())
 }
 
@@ -415,7 +423,7 @@ fn export(dir: &Path, asset: &str, out: &Path, raw: bool, channel: Option<&str>)
     let format = if raw { ExportFormat::Raw } else { ExportFormat::Exr };
     let s = export_texture(&bundle, asset, channel, format, out)
         .with_context(|| format!("exporting `{asset}` from {}", dir.display()))?;
-    println!(
+    out!(
         "{}: {} slice(s) of {}×{}, channels [{}], {} bytes",
         out.display(),
         s.slices,

@@ -15,6 +15,15 @@ impl Bars {
         Bars { bar: Mutex::new(None) }
     }
 
+    /// Prints a line on stderr, above the bar if one is drawn.
+    fn suspended(&self, line: &str) {
+        let line = crate::output::printable(line);
+        match self.bar.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+            Some(b) => b.suspend(|| crate::output::emit_err(&line)),
+            None => crate::output::emit_err(&line),
+        }
+    }
+
     pub fn finish(&self) {
         if let Some(b) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
             b.finish_and_clear();
@@ -31,7 +40,7 @@ impl Observer for Bars {
                 .progress_chars("=> "),
         );
         bar.set_prefix(format!("[{}/{}]", index + 1, total));
-        bar.set_message(format!("{kind} {id}"));
+        bar.set_message(crate::output::printable(&format!("{kind} {id}")));
         if let Some(old) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).replace(bar) {
             old.finish_and_clear();
         }
@@ -45,11 +54,11 @@ impl Observer for Bars {
     }
 
     fn waiting_for_lock(&self, lock: &std::path::Path) {
-        if let Some(b) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
-            b.suspend(|| eprintln!("waiting for {}: another hikage is writing this bundle", lock.display()));
-        } else {
-            eprintln!("waiting for {}: another hikage is writing this bundle", lock.display());
-        }
+        self.suspended(&format!("waiting for {}: another hikage is writing this bundle", lock.display()));
+    }
+
+    fn warning(&self, message: &str) {
+        self.suspended(&format!("warning: {message}"));
     }
 
     fn job_finished(&self, _id: &str, skipped: bool) {

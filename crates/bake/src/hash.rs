@@ -20,7 +20,8 @@ pub(crate) fn job_hash(job: &dyn Baker, base_dir: &Path, limits: &InputLimits) -
     h.update(&(settings.len() as u64).to_le_bytes());
     h.update(settings.as_bytes());
     for path in job.inputs(base_dir) {
-        let len = std::fs::metadata(&path).map_err(|e| BakeError::io(&path, e))?.len();
+        // Before anything is read: a FIFO or /dev/zero as an input would never end.
+        let len = hikage_bundle::files::regular_metadata(&path).map_err(|e| BakeError::io(&path, e))?.len();
         h.update(&len.to_le_bytes());
         stream(&path, len, &mut h)?;
     }
@@ -29,7 +30,7 @@ pub(crate) fn job_hash(job: &dyn Baker, base_dir: &Path, limits: &InputLimits) -
 
 /// The BLAKE3 of a file's bytes, read a block at a time (inputs may be larger than memory).
 pub(crate) fn file_digest(path: &Path) -> Result<String, BakeError> {
-    let len = std::fs::metadata(path).map_err(|e| BakeError::io(path, e))?.len();
+    let len = hikage_bundle::files::regular_metadata(path).map_err(|e| BakeError::io(path, e))?.len();
     let mut h = blake3::Hasher::new();
     stream(path, len, &mut h)?;
     Ok(h.finalize().to_hex().to_string())
@@ -39,7 +40,7 @@ pub(crate) fn file_digest(path: &Path) -> Result<String, BakeError> {
 /// by the time it has been read (it changed while being hashed).
 fn stream(path: &Path, len: u64, h: &mut blake3::Hasher) -> Result<(), BakeError> {
     use std::io::Read;
-    let mut file = std::fs::File::open(path).map_err(|e| BakeError::io(path, e))?;
+    let mut file = hikage_bundle::files::open_regular(path).map_err(|e| BakeError::io(path, e))?.take(len + 1);
     let mut buf = vec![0u8; 1 << 20];
     let mut read = 0u64;
     loop {

@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::error::BakeError;
-use crate::jobs::Job;
+use crate::jobs::{Job, JobContext};
 use crate::limits::InputLimits;
 
 /// A parsed pipeline file.
@@ -59,12 +59,52 @@ impl LoadedPipeline {
     pub fn resolve(&self, p: &Path) -> PathBuf {
         self.base_dir.join(p)
     }
+
+    /// A pipeline of the one job `job` writing into `bundle`, its source `<command line>` and
+    /// its inputs relative to the current directory: what the one-shot commands run.
+    pub fn one_job(job: Job, bundle: &Path) -> LoadedPipeline {
+        LoadedPipeline {
+            path: PathBuf::from(COMMAND_LINE),
+            base_dir: PathBuf::new(),
+            pipeline: Pipeline {
+                output: bundle.to_path_buf(),
+                limits: InputLimits::default(),
+                cache: None,
+                jobs: vec![job],
+            },
+        }
+    }
+
+    /// What a job of this pipeline runs with.
+    pub fn context<'a>(&'a self, progress: &'a (dyn Fn(u64, u64) + Sync)) -> JobContext<'a> {
+        JobContext { source: &self.path, base_dir: &self.base_dir, limits: &self.pipeline.limits, progress }
+    }
+
+    /// A setting error of job `job`, naming this pipeline's file.
+    pub(crate) fn setting(&self, job: &str, message: String) -> BakeError {
+        BakeError::Setting { path: self.path.clone(), job: job.to_string(), message }
+    }
+
+    /// An error the bundle writer gave for what job `job` baked: data it refuses to commit is
+    /// the job's (named with it), anything else passes through.
+    pub(crate) fn baked_error(&self, job: &str, e: hikage_bundle::BundleError) -> BakeError {
+        match e {
+            hikage_bundle::BundleError::InvalidData(message) => self.setting(job, message),
+            e => BakeError::Bundle(e),
+        }
+    }
 }
+
+/// The source named in the errors of a one-shot command's job.
+pub const COMMAND_LINE: &str = "<command line>";
+
+/// Largest `pipeline.ron` read.
+const MAX_PIPELINE_BYTES: u64 = 16 << 20;
 
 impl Pipeline {
     /// Reads and parses a pipeline file, then checks every job's settings.
     pub fn load(path: &Path) -> Result<LoadedPipeline, BakeError> {
-        let bytes = std::fs::read(path).map_err(|e| BakeError::io(path, e))?;
+        let bytes = hikage_bundle::files::read_limited(path, MAX_PIPELINE_BYTES, "pipeline size")?;
         // Not UTF-8 is malformed content, not an I/O failure.
         let text = std::str::from_utf8(&bytes).map_err(|e| BakeError::Pipeline {
             path: path.to_path_buf(),
@@ -113,11 +153,15 @@ impl Pipeline {
                 }
             }
         }
-        if self.limits.max_dimension == 0 {
+        if !(1..=crate::limits::MAX_DIMENSION).contains(&self.limits.max_dimension) {
             return Err(BakeError::Setting {
                 path: path.to_path_buf(),
                 job: "limits".into(),
-                message: "max_dimension must be at least 1".into(),
+                message: format!(
+                    "max_dimension must be 1 to {} (the largest side a reader can hold), found {}",
+                    crate::limits::MAX_DIMENSION,
+                    self.limits.max_dimension
+                ),
             });
         }
         Ok(())

@@ -5,19 +5,21 @@
 //! bake. The bundle is replaced only after every job succeeded (see
 //! [`hikage_bundle::BundleWriter`]); on any error the previous bundle stays as it was.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use hikage_bundle::{Asset, BundleWriter, WriteMode};
 
-use crate::cache::Cache;
+use crate::cache::{self, Cache};
 use crate::error::BakeError;
-use crate::jobs::{self, BakedPayload, Baker, Job, JobContext};
-use crate::limits::InputLimits;
+use crate::jobs::{self, BakedPayload, Baker, Job, Unit};
 use crate::pipeline::{LoadedPipeline, Pipeline};
 use crate::shard::{Shard, ShardRecord};
 
-/// The cache's size bound when a pipeline names a cache directory: 20 GiB.
-pub const DEFAULT_CACHE_BYTES: u64 = 20 << 30;
+/// Most assets one bake may make: a manifest entry of a tile is about 1.2 KB and readers accept
+/// a 16 MiB manifest, so about 13,000 tile assets is where a bundle could no longer be opened.
+/// The split refuses more, before anything is baked.
+pub const MAX_ASSETS: usize = 10_000;
 
 /// Receives progress while a pipeline runs. Implementations must be cheap: `progress` may be
 /// called often and from worker threads.
@@ -30,6 +32,9 @@ pub trait Observer: Sync {
     fn job_finished(&self, _id: &str, _skipped: bool) {}
     /// Another writer holds the bundle's lock (`lock`); the commit waits for it.
     fn waiting_for_lock(&self, _lock: &Path) {}
+    /// Something went wrong that does not fail the run (the shared cache could not be read or
+    /// written); `message` names the file.
+    fn warning(&self, _message: &str) {}
 }
 
 /// An observer that ignores everything.
@@ -40,7 +45,8 @@ impl Observer for Silent {}
 pub struct RunOptions<'a> {
     /// Bake every job even when its input hash matches, and replace an unreadable bundle.
     pub force: bool,
-    /// Worker threads (`None`: one per core). Outputs are identical for any value.
+    /// Worker threads (`None`: one per core; at most one per core). Outputs are identical for
+    /// any value.
     pub threads: Option<usize>,
     /// Progress receiver.
     pub observer: &'a dyn Observer,
@@ -81,10 +87,12 @@ pub fn run_pipeline(path: &Path, options: &RunOptions) -> Result<RunReport, Bake
     with_threads(options.threads, || run_loaded(&loaded, options))
 }
 
-/// Runs `f` on a rayon pool of `threads` workers (or the global pool).
+/// Runs `f` on a rayon pool of `threads` workers (at most one per core: more only adds
+/// threads to start), or on the global pool.
 pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> T {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     match threads {
-        Some(n) => match rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build() {
+        Some(n) => match rayon::ThreadPoolBuilder::new().num_threads(n.clamp(1, cores)).build() {
             Ok(pool) => pool.install(f),
             Err(_) => f(),
         },
@@ -92,78 +100,123 @@ pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Sen
     }
 }
 
-/// Runs an already loaded pipeline on the current rayon pool.
+/// Runs an already loaded pipeline on the current rayon pool: the pipeline owns its bundle,
+/// which afterwards holds exactly the assets its jobs make.
 pub fn run_loaded(loaded: &LoadedPipeline, options: &RunOptions) -> Result<RunReport, BakeError> {
-    let out = loaded.output_dir();
-    let mut writer = if options.force {
-        BundleWriter::open_ignoring_previous(&out, WriteMode::Replace)?
-    } else {
-        BundleWriter::open(&out, WriteMode::Replace)?
-    };
-    let mut report = RunReport { bundle: out.clone(), ..Default::default() };
-    report.watched.push(loaded.path.clone());
-    // Jobs split into their parts first, so that every shard agrees on the parts it takes.
-    let mut units = Vec::new();
-    for job in loaded.pipeline.jobs.iter().map(Job::baker) {
-        report.watched.extend(job.inputs(&loaded.base_dir));
-        units.extend(
-            jobs::units(job, &loaded.base_dir, &loaded.pipeline.limits)?
-                .into_iter()
-                .filter(|unit| options.shard.is_none_or(|s| s.has(unit.baker().id()))),
-        );
-    }
-    let total = units.len();
-    let cache = match (&options.cache, &loaded.pipeline.cache) {
-        (Some(c), _) => Some(c.clone()),
-        (None, Some(dir)) => Some(Cache::open(&loaded.resolve(dir), DEFAULT_CACHE_BYTES)?),
-        (None, None) => None,
-    };
-    let mut baked = Vec::new();
-    for (index, unit) in units.iter().enumerate() {
-        let run = JobRun { base_dir: &loaded.base_dir, limits: &loaded.pipeline.limits, cache: cache.as_ref() };
-        if let Some(made) = run_job(&mut writer, unit.baker(), &run, options, (index, total), &mut report)? {
-            baked.push(made);
-        }
-    }
-    let summary = writer.commit_waiting(&|lock| options.observer.waiting_for_lock(lock))?;
-    if let Some(cache) = &cache {
-        for (hash, assets) in &baked {
-            cache.put(hash, assets, &out)?;
-        }
-        cache.evict()?;
-    }
-    report.removed = summary.removed;
-    report.manifest_written = summary.manifest_written;
+    let report = run_jobs(loaded, options, WriteMode::Replace)?;
     // A partial bundle says which pipeline and split it is; a whole one says nothing.
     match options.shard {
-        Some(shard) => ShardRecord::new(&loaded.path, shard)?.write(&out)?,
-        None => ShardRecord::clear(&out)?,
+        Some(shard) => ShardRecord::new(&loaded.path, shard)?.write(&report.bundle)?,
+        None => ShardRecord::clear(&report.bundle)?,
     }
     Ok(report)
 }
 
-/// Where a job runs: its inputs' directory, the limits, the cache.
-struct JobRun<'a> {
-    base_dir: &'a Path,
-    limits: &'a InputLimits,
-    cache: Option<&'a Cache>,
+/// Runs one job against the bundle in `bundle` (created if missing), adding or replacing the
+/// job's assets and keeping every other asset: the one-shot commands (`hikage horizon …`), a
+/// pipeline of one job named `<command line>`. Relative input paths are resolved against the
+/// current directory.
+pub fn run_one_job(job: &Job, bundle: &Path, options: &RunOptions) -> Result<RunReport, BakeError> {
+    let loaded = LoadedPipeline::one_job(job.clone(), bundle);
+    loaded.pipeline.check(&loaded.path)?;
+    with_threads(options.threads, || run_jobs(&loaded, options, WriteMode::Update))
 }
 
-/// Bakes one job into `writer`, or keeps its assets when its input hash is unchanged, or takes
-/// them from the cache. Returns the input hash and assets of a job it baked, for the cache.
+/// The one bake path: split the jobs into the units they are baked as, then for each unit skip
+/// it, take it from the cache or bake it, then commit.
+fn run_jobs(loaded: &LoadedPipeline, options: &RunOptions, mode: WriteMode) -> Result<RunReport, BakeError> {
+    let out = loaded.output_dir();
+    let mut writer =
+        if options.force { BundleWriter::open_ignoring_previous(&out, mode)? } else { BundleWriter::open(&out, mode)? };
+    let mut report = RunReport { bundle: out.clone(), ..Default::default() };
+    report.watched.push(loaded.path.clone());
+    report.watched.extend(loaded.pipeline.jobs.iter().flat_map(|j| j.baker().inputs(&loaded.base_dir)));
+    let units: Vec<Unit> =
+        split(loaded)?.into_iter().filter(|unit| options.shard.is_none_or(|s| s.has(unit.baker().id()))).collect();
+    let cache = match (&options.cache, &loaded.pipeline.cache) {
+        (Some(c), _) => Some(c.clone()),
+        (None, Some(dir)) => match Cache::open(&loaded.resolve(dir), cache::DEFAULT_MAX_GIB) {
+            Ok(c) => Some(c),
+            Err(e) => {
+                options.observer.warning(&format!("the cache is not used: {e}"));
+                None
+            }
+        },
+        (None, None) => None,
+    };
+    let mut baked = Vec::new();
+    for (index, unit) in units.iter().enumerate() {
+        let job = unit.baker();
+        if let Some(made) =
+            run_job(&mut writer, job, loaded, cache.as_ref(), options, (index, units.len()), &mut report)?
+        {
+            baked.push(made);
+        }
+    }
+    let summary = writer.commit_waiting(&|lock| options.observer.waiting_for_lock(lock))?;
+    // The cache is an optimisation: once the bundle is committed, nothing it does fails the bake.
+    if let Some(cache) = &cache {
+        for (hash, assets) in &baked {
+            if let Err(e) = cache.put(hash, assets, &out) {
+                options.observer.warning(&format!("could not store in the cache: {e}"));
+            }
+        }
+        if let Err(e) = cache.evict() {
+            options.observer.warning(&format!("could not evict from the cache: {e}"));
+        }
+    }
+    report.removed = summary.removed;
+    report.manifest_written = summary.manifest_written;
+    Ok(report)
+}
+
+/// The units the pipeline's jobs are baked as (a tiled job's tiles, every other job whole),
+/// with every asset id made once and no more than [`MAX_ASSETS`] in all: what `bake` and
+/// `validate PIPELINE` both check before baking anything.
+pub(crate) fn split(loaded: &LoadedPipeline) -> Result<Vec<Unit<'_>>, BakeError> {
+    let mut units = Vec::new();
+    let mut made: BTreeMap<String, String> = BTreeMap::new();
+    for job in loaded.pipeline.jobs.iter().map(Job::baker) {
+        let progress = |_: u64, _: u64| {};
+        let ctx = loaded.context(&progress);
+        for unit in jobs::units(job, &ctx)? {
+            for id in unit.baker().outputs() {
+                if let Some(other) = made.insert(id.clone(), job.id().to_string()) {
+                    return Err(loaded.setting(job.id(), format!("asset id `{id}` is also made by job `{other}`")));
+                }
+            }
+            units.push(unit);
+        }
+        if made.len() > MAX_ASSETS {
+            return Err(loaded.setting(
+                job.id(),
+                format!(
+                    "the pipeline would make {} assets with this job, above the {MAX_ASSETS} a bundle's manifest can                      hold: use larger tiles",
+                    made.len()
+                ),
+            ));
+        }
+    }
+    Ok(units)
+}
+
+/// Bakes one unit into `writer`, or keeps its assets when its input hash is unchanged, or takes
+/// them from the cache. Returns the input hash and assets of a unit it baked, for the cache.
 fn run_job(
     writer: &mut BundleWriter,
     job: &dyn Baker,
-    run: &JobRun,
+    loaded: &LoadedPipeline,
+    cache: Option<&Cache>,
     options: &RunOptions,
     (index, total): (usize, usize),
     report: &mut RunReport,
 ) -> Result<Option<(String, Vec<Asset>)>, BakeError> {
     let id = job.id().to_string();
     options.observer.job_started(index, total, &id, job.kind());
-    let hash = crate::hash::job_hash(job, run.base_dir, run.limits)?;
+    let hash = crate::hash::job_hash(job, &loaded.base_dir, &loaded.pipeline.limits)?;
+    let outputs = job.outputs();
     let reusable: Option<Vec<_>> =
-        if options.force { None } else { job.outputs().iter().map(|o| writer.reusable(o, &hash)).collect() };
+        if options.force { None } else { outputs.iter().map(|o| writer.reusable(o, &hash)).collect() };
     if let Some(assets) = reusable {
         for a in assets {
             writer.keep(a);
@@ -172,7 +225,7 @@ fn run_job(
         options.observer.job_finished(&id, true);
         return Ok(None);
     }
-    if let Some(found) = run.cache.filter(|_| !options.force).and_then(|c| c.get(&hash)) {
+    if let Some(found) = cache.filter(|_| !options.force).and_then(|c| c.get(&hash, &outputs)) {
         for (asset, bytes) in found {
             writer.put_existing(asset, &bytes)?;
         }
@@ -181,48 +234,20 @@ fn run_job(
         return Ok(None);
     }
     let progress = |done: u64, all: u64| options.observer.progress(&id, done, all);
-    let ctx = JobContext { base_dir: run.base_dir, limits: run.limits, progress: &progress };
+    let ctx = loaded.context(&progress);
     let mut made = Vec::new();
     for asset in job.bake(&ctx)? {
-        made.push(match &asset.payload {
-            BakedPayload::Texture(t) => writer.put_texture(&asset.id, asset.settings, &hash, t)?,
-            BakedPayload::Mesh(m) => writer.put_mesh(&asset.id, asset.settings, &hash, m)?,
-        });
+        made.push(
+            match &asset.payload {
+                BakedPayload::Texture(t) => writer.put_texture(&asset.id, asset.settings, &hash, t),
+                BakedPayload::Mesh(m) => writer.put_mesh(&asset.id, asset.settings, &hash, m),
+            }
+            .map_err(|e| loaded.baked_error(&id, e))?,
+        );
     }
     report.baked.push(id.clone());
     options.observer.job_finished(&id, false);
     Ok(Some((hash, made)))
-}
-
-/// Runs one job against the bundle in `bundle` (created if missing), adding or replacing the
-/// job's assets and keeping every other asset: the one-shot commands (`hikage horizon …`).
-/// Relative input paths are resolved against the current directory.
-pub fn run_one_job(job: &Job, bundle: &Path, options: &RunOptions) -> Result<RunReport, BakeError> {
-    let job = job.baker();
-    crate::jobs::check(job).map_err(|message| BakeError::Setting {
-        path: PathBuf::from("<command line>"),
-        job: job.id().to_string(),
-        message,
-    })?;
-    with_threads(options.threads, || {
-        let mut writer = if options.force {
-            BundleWriter::open_ignoring_previous(bundle, WriteMode::Update)?
-        } else {
-            BundleWriter::open(bundle, WriteMode::Update)?
-        };
-        let mut report = RunReport { bundle: bundle.to_path_buf(), ..Default::default() };
-        let limits = InputLimits::default();
-        let run = JobRun { base_dir: Path::new(""), limits: &limits, cache: options.cache.as_ref() };
-        report.watched.extend(job.inputs(run.base_dir));
-        let units = jobs::units(job, run.base_dir, &limits)?;
-        for (index, unit) in units.iter().enumerate() {
-            run_job(&mut writer, unit.baker(), &run, options, (index, units.len()), &mut report)?;
-        }
-        let summary = writer.commit_waiting(&|lock| options.observer.waiting_for_lock(lock))?;
-        report.removed = summary.removed;
-        report.manifest_written = summary.manifest_written;
-        Ok(report)
-    })
 }
 
 /// What `validate PIPELINE` found: the jobs and inputs it checked.
@@ -234,18 +259,19 @@ pub struct PipelineCheck {
     pub inputs: Vec<PathBuf>,
 }
 
-/// Checks a pipeline without baking: it parses, every setting is valid, and every input opens
-/// and decodes.
+/// Checks a pipeline without baking: it parses, every setting is valid, the jobs split into
+/// their units with every asset id made once, and every input opens and decodes as a bake
+/// would read it (elevation grids a block at a time, so the check needs little memory).
 pub fn check_pipeline(path: &Path, observer: &dyn Observer) -> Result<PipelineCheck, BakeError> {
     let loaded = Pipeline::load(path)?;
+    split(&loaded)?;
     let mut check = PipelineCheck::default();
     let total = loaded.pipeline.jobs.len();
     for (index, job) in loaded.pipeline.jobs.iter().enumerate() {
         let job = job.baker();
         observer.job_started(index, total, job.id(), job.kind());
         let progress = |_: u64, _: u64| {};
-        let ctx = JobContext { base_dir: &loaded.base_dir, limits: &loaded.pipeline.limits, progress: &progress };
-        job.check_inputs(&ctx)?;
+        job.check_inputs(&loaded.context(&progress))?;
         check.jobs.push(job.id().to_string());
         check.inputs.extend(job.inputs(&loaded.base_dir));
         observer.job_finished(job.id(), false);

@@ -18,16 +18,61 @@ use crate::error::BakeError;
 /// The file beside a partial bundle's manifest that names its pipeline and split.
 pub const SHARD_FILE: &str = "shard.ron";
 
-/// Shard `index` of an N-way split (`index < count`).
+/// Most shards in a split: more machines than jobs is never useful, and a part's record is
+/// not trusted to size anything.
+pub const MAX_SHARDS: u32 = 65_536;
+
+/// Largest `shard.ron` read (a record is about a hundred bytes).
+const MAX_RECORD_BYTES: u64 = 64 << 10;
+
+/// Shard `index` of an N-way split (`index < count ≤` [`MAX_SHARDS`]). Every way of making one
+/// — [`Shard::new`], [`Shard::parse`], reading a `shard.ron` — checks that.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "UncheckedShard")]
 pub struct Shard {
     /// This shard, 0-based.
-    pub index: u32,
+    index: u32,
     /// Shards in the split.
-    pub count: u32,
+    count: u32,
+}
+
+/// A shard as a file spells it, before [`Shard::new`] checks it.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct UncheckedShard {
+    index: u32,
+    count: u32,
+}
+
+impl TryFrom<UncheckedShard> for Shard {
+    type Error = String;
+    fn try_from(s: UncheckedShard) -> Result<Shard, String> {
+        Shard::new(s.index, s.count)
+    }
 }
 
 impl Shard {
+    /// Shard `index` of `count`, or why it cannot be one.
+    pub fn new(index: u32, count: u32) -> Result<Shard, String> {
+        if count == 0 || count > MAX_SHARDS {
+            return Err(format!("a split has 1 to {MAX_SHARDS} shards, found {count}"));
+        }
+        if index >= count {
+            return Err(format!("shard {index} of {count}: the index must be below the count"));
+        }
+        Ok(Shard { index, count })
+    }
+
+    /// This shard, 0-based.
+    pub fn index(&self) -> u32 {
+        self.index
+    }
+
+    /// Shards in the split.
+    pub fn count(&self) -> u32 {
+        self.count
+    }
+
     /// Parses `K/N`, or `env/N` with K from `JOB_COMPLETION_INDEX` (Kubernetes Indexed Jobs)
     /// or `SLURM_ARRAY_TASK_ID` (Slurm arrays), whichever is set.
     pub fn parse(text: &str) -> Result<Shard, String> {
@@ -42,10 +87,7 @@ impl Shard {
         } else {
             k.trim().parse().map_err(|_| format!("shard index {k:?} is not a number"))?
         };
-        if count == 0 || index >= count {
-            return Err(format!("shard {index} of {count}: the index must be below the count"));
-        }
-        Ok(Shard { index, count })
+        Shard::new(index, count)
     }
 
     /// Whether the job `id` is this shard's.
@@ -63,6 +105,7 @@ pub fn shard_of(id: &str, count: u32) -> u32 {
 
 /// What `shard.ron` records.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ShardRecord {
     /// BLAKE3 of the pipeline file's bytes.
     pub pipeline: String,
@@ -95,11 +138,28 @@ impl ShardRecord {
         }
     }
 
-    /// Reads the record of the partial bundle in `dir`.
+    /// Reads the record of the partial bundle in `dir`: at most 64 KiB of text, every field
+    /// checked (a shard of a split of 1 to [`MAX_SHARDS`], a 64-digit BLAKE3).
     pub fn read(dir: &Path) -> Result<ShardRecord, BakeError> {
         let path = dir.join(SHARD_FILE);
-        let text = std::fs::read_to_string(&path).map_err(|e| BakeError::io(&path, e))?;
-        ron::from_str(&text).map_err(|e| BakeError::input(&path, None, format!("expected a shard record: {e}")))
+        let bytes = hikage_bundle::files::read_limited(&path, MAX_RECORD_BYTES, "shard record size")?;
+        let text = std::str::from_utf8(&bytes)
+            .map_err(|e| BakeError::input(&path, Some(format!("byte {}", e.valid_up_to())), "expected UTF-8 text"))?;
+        let record: ShardRecord = ron::from_str(text).map_err(|e| {
+            BakeError::input(
+                &path,
+                Some(format!("{}:{}", e.span.start.line, e.span.start.col)),
+                format!("expected a shard record: {}", e.code),
+            )
+        })?;
+        if record.pipeline.len() != 64 || !record.pipeline.bytes().all(|b| b.is_ascii_hexdigit()) {
+            return Err(BakeError::input(
+                &path,
+                Some("pipeline".into()),
+                format!("expected a 64-digit BLAKE3, found {:?}", record.pipeline),
+            ));
+        }
+        Ok(record)
     }
 }
 
@@ -113,15 +173,16 @@ pub struct MergeReport {
 }
 
 /// Merges the partial bundles `parts` (all N shards of one pipeline's split) into the bundle
-/// directory `out`, replacing what was there: the bundle a one-machine bake makes.
-pub fn merge(out: &Path, parts: &[PathBuf]) -> Result<MergeReport, BakeError> {
+/// directory `out`, replacing the bundle there; an `out` whose manifest cannot be read is
+/// replaced only with `force` (as `bake --force` does). Files in `out` that no manifest of ours
+/// names are left alone.
+pub fn merge(out: &Path, parts: &[PathBuf], force: bool) -> Result<MergeReport, BakeError> {
     let refuse = |path: &Path, message: String| BakeError::input(path, None, message);
     let first = parts.first().ok_or_else(|| refuse(out, "merge needs at least one part".into()))?;
     let records: Vec<ShardRecord> = parts.iter().map(|p| ShardRecord::read(p)).collect::<Result<_, _>>()?;
-    let bundles: Vec<Bundle> = parts.iter().map(|p| Bundle::open(p)).collect::<Result<_, _>>()?;
     let count = records[0].shard.count;
-    let mut seen = vec![None::<&Path>; count as usize];
-    for ((part, record), bundle) in parts.iter().zip(&records).zip(&bundles) {
+    let mut seen: std::collections::BTreeMap<u32, &Path> = Default::default();
+    for (part, record) in parts.iter().zip(&records) {
         if record.pipeline != records[0].pipeline {
             return Err(refuse(part, format!("is a shard of another pipeline than {}", first.display())));
         }
@@ -131,12 +192,18 @@ pub fn merge(out: &Path, parts: &[PathBuf]) -> Result<MergeReport, BakeError> {
                 format!("is shard {} of {}, not of {count}", record.shard.index, record.shard.count),
             ));
         }
-        if let Some(other) = seen[record.shard.index as usize].replace(part) {
+        if let Some(other) = seen.insert(record.shard.index, part) {
             return Err(refuse(
                 part,
                 format!("is shard {} of {count} again (so is {})", record.shard.index, other.display()),
             ));
         }
+    }
+    if let Some(missing) = (0..count).find(|k| !seen.contains_key(k)) {
+        return Err(refuse(out, format!("shard {missing} of {count} is missing from the parts")));
+    }
+    let bundles: Vec<Bundle> = parts.iter().map(|p| Bundle::open(p)).collect::<Result<_, _>>()?;
+    for (part, bundle) in parts.iter().zip(&bundles) {
         let (m, m0) = (bundle.manifest(), bundles[0].manifest());
         if m.generator != m0.generator || m.format != m0.format {
             return Err(refuse(
@@ -152,10 +219,11 @@ pub fn merge(out: &Path, parts: &[PathBuf]) -> Result<MergeReport, BakeError> {
             ));
         }
     }
-    if let Some(missing) = seen.iter().position(Option::is_none) {
-        return Err(refuse(out, format!("shard {missing} of {count} is missing from the parts")));
-    }
-    let mut writer = BundleWriter::open_ignoring_previous(out, WriteMode::Replace)?;
+    let mut writer = if force {
+        BundleWriter::open_ignoring_previous(out, WriteMode::Replace)?
+    } else {
+        BundleWriter::open(out, WriteMode::Replace)?
+    };
     let mut taken: std::collections::BTreeMap<&str, (&Asset, &Path)> = Default::default();
     for (part, bundle) in parts.iter().zip(&bundles) {
         for asset in &bundle.manifest().assets {
@@ -168,9 +236,12 @@ pub fn merge(out: &Path, parts: &[PathBuf]) -> Result<MergeReport, BakeError> {
                 }
                 continue;
             }
-            let path = part.join(&asset.file);
-            let bytes = std::fs::read(&path).map_err(|e| BakeError::io(&path, e))?;
-            writer.put_existing(asset.clone(), &bytes).map_err(|e| refuse(&path, e.to_string()))?;
+            // Read with its size and hash checked against the part's manifest.
+            let bytes = bundle.read_payload(asset)?;
+            writer.put_existing(asset.clone(), &bytes).map_err(|e| match e {
+                e @ hikage_bundle::BundleError::Io { .. } => BakeError::Bundle(e),
+                e => refuse(&bundle.payload_path(asset), e.to_string()),
+            })?;
         }
     }
     writer.commit()?;

@@ -114,11 +114,76 @@ pub fn mesh(data: &[u8]) {
     }
 }
 
+/// A one-asset bundle (a 4×4 heightfield `t<k>`) in `dir`, for the targets that need parts or
+/// payloads to point at; written once per process.
+fn small_bundle(dir: &Path, k: u32) -> Option<hikage_bundle::Asset> {
+    let _ = std::fs::remove_dir_all(dir);
+    let mut writer = hikage_bundle::BundleWriter::open(dir, hikage_bundle::WriteMode::Replace).ok()?;
+    let hf = hikage_bake::Heightfield::from_samples(4, 4, (0..16).map(|i| (i + k) as f32 / 31.0).collect());
+    let texture = hf.to_texture(hikage_bundle::TextureFormat::R16Float).ok()?;
+    let settings = hikage_bundle::Settings::Generic;
+    let asset = writer.put_texture(&format!("t{k}"), settings, &"0".repeat(64), &texture).ok()?;
+    writer.commit().ok()?;
+    Some(asset)
+}
+
+/// `shard.ron` bytes → [`hikage_bake::shard::merge`] of two parts: a valid shard 0 of 2, and a
+/// part whose record is `data` (its bundle valid). Whatever the record says, the merge gives a
+/// bundle or an error, never a panic or an allocation the record sizes; a bundle it gives
+/// validates.
+pub fn shard_merge(data: &[u8]) {
+    let root = scratch().join("merge");
+    static PARTS: OnceLock<Option<()>> = OnceLock::new();
+    let ready = PARTS.get_or_init(|| {
+        for k in 0..2 {
+            small_bundle(&root.join(format!("part{k}")), k)?;
+        }
+        let record = "(pipeline: \"".to_string() + &"a".repeat(64) + "\", shard: (index: 0, count: 2))";
+        std::fs::write(root.join("part0").join(hikage_bake::shard::SHARD_FILE), record).ok()
+    });
+    if ready.is_none() || std::fs::write(root.join("part1").join(hikage_bake::shard::SHARD_FILE), data).is_err() {
+        return;
+    }
+    let out = root.join("out");
+    let _ = std::fs::remove_dir_all(&out);
+    let parts = [root.join("part0"), root.join("part1")];
+    if hikage_bake::shard::merge(&out, &parts, false).is_ok() {
+        let report = hikage_bundle::validate(&out).expect("a merged bundle opens");
+        assert!(report.is_valid(), "a merged bundle validates: {:?}", report.problems);
+    }
+}
+
+/// `entry.ron` bytes of a cache entry beside one valid payload → [`hikage_bake::cache::Cache::get`]
+/// for a job making `t0`. A hit is exactly the job's one asset, its payload intact; anything else
+/// is a miss, never a panic.
+pub fn cache_entry(data: &[u8]) {
+    let root = scratch().join("cache");
+    static ENTRY: OnceLock<Option<(hikage_bundle::Asset, PathBuf)>> = OnceLock::new();
+    let hash = "0".repeat(64);
+    let entry = ENTRY.get_or_init(|| {
+        let asset = small_bundle(&root.join("bundle"), 0)?;
+        Some((asset, root.join("cache").join(&hash[..2]).join(&hash)))
+    });
+    let Some((asset, dir)) = entry else { return };
+    let Ok(cache) = hikage_bake::cache::Cache::open(&root.join("cache"), 1) else { return };
+    // The entry as a baker would have stored it, its records replaced by `data`.
+    let _ = std::fs::create_dir_all(dir);
+    let _ = std::fs::copy(root.join("bundle").join(&asset.file), dir.join(&asset.file));
+    if std::fs::write(dir.join("entry.ron"), data).is_err() {
+        return;
+    }
+    if let Some(found) = cache.get(&hash, &["t0".to_string()]) {
+        assert_eq!(found.len(), 1, "a hit holds exactly the job's assets");
+        assert_eq!(found[0].0.id, "t0");
+        assert_eq!(blake3::hash(&found[0].1).to_hex().as_str(), found[0].0.blake3);
+    }
+}
+
 /// A fuzz entry point.
 pub type Target = fn(&[u8]);
 
 /// The targets by name, for the regression replay.
-pub const TARGETS: [(&str, Target); 8] = [
+pub const TARGETS: [(&str, Target); 10] = [
     ("manifest", manifest),
     ("bundle", bundle),
     ("ktx2", ktx2),
@@ -127,4 +192,6 @@ pub const TARGETS: [(&str, Target); 8] = [
     ("pipeline", pipeline),
     ("heightfield", heightfield),
     ("mesh", mesh),
+    ("shard_merge", shard_merge),
+    ("cache_entry", cache_entry),
 ];

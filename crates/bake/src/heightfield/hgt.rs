@@ -1,11 +1,11 @@
 //! SRTM `.hgt` elevation tiles: a square grid of big-endian signed 16-bit metres, row 0 the
 //! northern edge, its side given only by the file's length (1201² for 3″ tiles, 3601² for 1″).
 //! Voids (−32768) carry no height; they take the tile's lowest elevation (the no-data rule of
-//! every elevation format, `fill_voids`).
+//! every elevation format).
 
 use std::path::Path;
 
-use super::{LoadOptions, Samples, check_dimensions, fill_voids, square_side};
+use super::{LoadOptions, check_dimensions, square_side};
 use crate::error::BakeError;
 
 /// The value SRTM uses for a void.
@@ -16,14 +16,6 @@ pub(super) fn is_hgt(path: &Path) -> bool {
     path.extension().is_some_and(|e| e.eq_ignore_ascii_case("hgt"))
 }
 
-/// Reads an SRTM tile; the side comes from the length, checked before anything is allocated.
-pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Samples, BakeError> {
-    let side = side(path, options)?;
-    let bytes = std::fs::read(path).map_err(|e| BakeError::io(path, e))?;
-    let values = fill_voids(path, decode(&bytes), f32::from(VOID))?;
-    Ok(Samples { width: side, height: side, values, normalized: false, channel: "elevation".into() })
-}
-
 /// The samples of big-endian 16-bit bytes.
 pub(super) fn decode(bytes: &[u8]) -> Vec<f32> {
     bytes.chunks_exact(2).map(|b| f32::from(i16::from_be_bytes([b[0], b[1]]))).collect()
@@ -32,7 +24,7 @@ pub(super) fn decode(bytes: &[u8]) -> Vec<f32> {
 /// The side of an SRTM tile from its length, checked against the limits and the channel asked
 /// for; nothing is read.
 pub(super) fn side(path: &Path, options: &LoadOptions) -> Result<u32, BakeError> {
-    let len = std::fs::metadata(path).map_err(|e| BakeError::io(path, e))?.len();
+    let len = hikage_bundle::files::regular_metadata(path).map_err(|e| BakeError::io(path, e))?.len();
     let Some(side) = square_side(len, 2).filter(|&n| n >= 2) else {
         return Err(BakeError::input(
             path,

@@ -125,44 +125,29 @@ pub struct Samples {
     pub channel: String,
 }
 
-/// Loads samples from a PNG or EXR file (chosen by its first bytes, not its extension) or an
-/// SRTM `.hgt` tile (chosen by its extension: the format has no signature), and checks that
-/// every sample is finite.
+/// Loads the whole map from any supported file (see [`HeightSource::open`] for how the format
+/// is chosen): a read of the window that is the whole map, voids filled, every sample checked
+/// to be finite.
 pub fn load_samples(path: &Path, options: &LoadOptions) -> Result<Samples, BakeError> {
-    if hgt::is_hgt(path) {
-        return hgt::load(path, options);
-    }
-    if let Some(bytes) = raw::bytes_per_sample(path) {
-        let samples = raw::load(path, options, bytes)?;
-        return finite(path, samples);
-    }
-    let mut magic = [0u8; 8];
-    {
-        use std::io::Read;
-        let mut f = std::fs::File::open(path).map_err(|e| BakeError::io(path, e))?;
-        let n = f.read(&mut magic).map_err(|e| BakeError::io(path, e))?;
-        if n < 4 {
-            return Err(BakeError::input(path, None, format!("expected a PNG or EXR image, found a {n}-byte file")));
-        }
-    }
-    let samples = if magic.starts_with(&[0x89, b'P', b'N', b'G']) {
-        png::load(path, options)?
-    } else if magic.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
-        exr::load(path, options)?
-    } else if tiff::is_tiff(&magic) {
-        tiff::load(path, options)?
-    } else {
-        return Err(BakeError::input(
-            path,
-            Some("byte 0".into()),
-            "expected a PNG, OpenEXR or TIFF signature (or a file named *.hgt, *.r16 or *.r32); other formats are not read",
-        ));
-    };
-    finite(path, samples)
+    HeightSource::open(path, options)?.read_all()
 }
 
-/// The samples, or an error naming the first that is not finite.
-fn finite(path: &Path, samples: Samples) -> Result<Samples, BakeError> {
+/// `samples` when they are exactly `width × height` and all finite; otherwise an error naming
+/// the file and the first sample that is not.
+pub(crate) fn checked(path: &Path, samples: Samples) -> Result<Samples, BakeError> {
+    let expected = samples.width as usize * samples.height as usize;
+    if samples.values.len() != expected {
+        return Err(BakeError::input(
+            path,
+            None,
+            format!(
+                "expected {}×{} = {expected} samples, decoded {}",
+                samples.width,
+                samples.height,
+                samples.values.len()
+            ),
+        ));
+    }
     if let Some(i) = samples.values.iter().position(|v| !v.is_finite()) {
         let (x, y) = (i % samples.width as usize, i / samples.width as usize);
         return Err(BakeError::input(
@@ -174,20 +159,32 @@ fn finite(path: &Path, samples: Samples) -> Result<Samples, BakeError> {
     Ok(samples)
 }
 
+/// Whether `v` is a void of a grid whose no-data value is `no_data` (GDAL's `nan` matches
+/// every NaN).
+pub(crate) fn is_void(v: f32, no_data: f32) -> bool {
+    v == no_data || (no_data.is_nan() && v.is_nan())
+}
+
 /// The no-data rule of every elevation format: samples equal to `no_data` take the lowest
 /// other sample, so a void never casts a shadow it has no terrain for. A grid of voids only is
 /// an error naming the file.
 pub(crate) fn fill_voids(path: &Path, mut values: Vec<f32>, no_data: f32) -> Result<Vec<f32>, BakeError> {
-    let lowest = values.iter().copied().filter(|&v| v != no_data && v.is_finite()).fold(f32::INFINITY, f32::min);
+    let lowest = lowest_valid(values.iter().copied(), no_data, f32::INFINITY);
     if !lowest.is_finite() {
-        return Err(BakeError::input(
-            path,
-            None,
-            format!("every one of the {} samples is no-data ({no_data})", values.len()),
-        ));
+        return Err(all_void(path, values.len() as u64, no_data));
     }
-    values.iter_mut().filter(|v| **v == no_data).for_each(|v| *v = lowest);
+    values.iter_mut().filter(|v| is_void(**v, no_data)).for_each(|v| *v = lowest);
     Ok(values)
+}
+
+/// The lowest finite sample of `values` that is not a void, starting from `lowest`.
+pub(crate) fn lowest_valid(values: impl Iterator<Item = f32>, no_data: f32, lowest: f32) -> f32 {
+    values.filter(|&v| !is_void(v, no_data) && v.is_finite()).fold(lowest, f32::min)
+}
+
+/// The error for a grid with no valid sample.
+pub(crate) fn all_void(path: &Path, count: u64, no_data: f32) -> BakeError {
+    BakeError::input(path, None, format!("every one of the {count} samples is no-data ({no_data})"))
 }
 
 /// The side of a square grid of `bytes`-byte samples filling `len` bytes, if it is one.

@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use super::{LoadOptions, Samples, check_dimensions, square_side};
+use super::{LoadOptions, check_dimensions, square_side};
 use crate::error::BakeError;
 
 /// Bytes per sample of a raw heightmap, by its extension; `None` for other files.
@@ -16,15 +16,6 @@ pub(super) fn bytes_per_sample(path: &Path) -> Option<u64> {
         "r32" => Some(4),
         _ => None,
     }
-}
-
-/// Reads a raw heightmap of `bytes` per sample; the size is checked against the file's length
-/// and the limits before anything is read.
-pub(super) fn load(path: &Path, options: &LoadOptions, bytes: u64) -> Result<Samples, BakeError> {
-    let (w, h) = dimensions(path, options, bytes)?;
-    let data = std::fs::read(path).map_err(|e| BakeError::io(path, e))?;
-    let values = decode(&data, bytes);
-    Ok(Samples { width: w, height: h, values, normalized: false, channel: "height".into() })
 }
 
 /// The samples of little-endian bytes, `bytes` (2 or 4) per sample.
@@ -39,7 +30,7 @@ pub(super) fn decode(data: &[u8], bytes: u64) -> Vec<f32> {
 /// The width and height of a raw heightmap of `bytes` per sample, checked against the file's
 /// length, the limits and the channel asked for; nothing is read.
 pub(super) fn dimensions(path: &Path, options: &LoadOptions, bytes: u64) -> Result<(u32, u32), BakeError> {
-    let len = std::fs::metadata(path).map_err(|e| BakeError::io(path, e))?.len();
+    let len = hikage_bundle::files::regular_metadata(path).map_err(|e| BakeError::io(path, e))?.len();
     let (w, h) = match options.raw_size {
         Some((w, h)) => (w as u64, h as u64),
         None => {

@@ -1,14 +1,16 @@
-//! TIFF and GeoTIFF elevation grids (unsigned or signed 16-bit, or 32-bit float; strips or
-//! tiles, any of the common compressions), read with the `tiff` crate. Heights are taken as
-//! stored. GDAL's no-data value (tag 42113) marks voids, which are filled with the lowest valid
-//! height as SRTM voids are; the georeferencing tags are not needed for a bake and are ignored.
+//! TIFF and GeoTIFF elevation grids (8-, 16- or 32-bit integers, signed or not, or 32- or
+//! 64-bit floats; strips or tiles, any of the common compressions), read with the `tiff`
+//! crate. Heights are taken as stored. GDAL's no-data value (tag 42113, `nan` included) marks
+//! voids, which are filled with the lowest valid height as SRTM voids are; the georeferencing
+//! tags are not needed for a bake and are ignored. The header is checked before any sample is
+//! decoded: size within the limits, one sample per pixel of a depth listed above.
 
 use std::path::Path;
 
 use tiff::decoder::{ChunkType, Decoder, DecodingResult, Limits};
 use tiff::tags::Tag;
 
-use super::{LoadOptions, Samples, check_dimensions, fill_voids};
+use super::{LoadOptions, check_dimensions};
 use crate::error::BakeError;
 
 /// Whether `magic` starts a TIFF file (either byte order; BigTIFF too).
@@ -29,18 +31,6 @@ pub(super) struct TiffFile {
     pub no_data: Option<f32>,
 }
 
-/// Reads the first image of a TIFF: its size checked from the header before any sample is
-/// decoded, one channel of u16, i16 or f32 samples.
-pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Samples, BakeError> {
-    let mut file = open(path, options)?;
-    let values = samples(path, file.decoder.read_image().map_err(|e| bad(path, e))?)?;
-    let values = match file.no_data {
-        Some(nd) => fill_voids(path, values, nd)?,
-        None => values,
-    };
-    Ok(Samples { width: file.width, height: file.height, values, normalized: false, channel: "height".into() })
-}
-
 fn bad(path: &Path, e: tiff::TiffError) -> BakeError {
     BakeError::input(path, None, format!("cannot decode TIFF: {e}"))
 }
@@ -49,10 +39,11 @@ fn bad(path: &Path, e: tiff::TiffError) -> BakeError {
 /// channel asked for, a readable no-data tag.
 pub(super) fn open(path: &Path, options: &LoadOptions) -> Result<TiffFile, BakeError> {
     let bad = |e| bad(path, e);
-    let file = std::fs::File::open(path).map_err(|e| BakeError::io(path, e))?;
+    let file = hikage_bundle::files::open_regular(path).map_err(|e| BakeError::io(path, e))?;
     let mut limits = Limits::default();
     // Room for the largest map the limits allow, in f32 (the widest sample read).
-    limits.decoding_buffer_size = (options.max_dimension as usize).pow(2).saturating_mul(4);
+    let side = options.max_dimension as usize;
+    limits.decoding_buffer_size = side.saturating_mul(side).saturating_mul(8);
     let mut decoder = Decoder::new(std::io::BufReader::new(file)).map_err(bad)?.with_limits(limits);
     let (w, h) = decoder.dimensions().map_err(bad)?;
     check_dimensions(path, w as u64, h as u64, options.max_dimension)?;
@@ -64,8 +55,37 @@ pub(super) fn open(path: &Path, options: &LoadOptions) -> Result<TiffFile, BakeE
             format!("expected one sample per pixel (an elevation grid), found {samples_per_pixel}"),
         ));
     }
+    let bits = decoder.find_tag_unsigned::<u32>(Tag::BitsPerSample).map_err(bad)?.unwrap_or(1);
+    let format = decoder.find_tag_unsigned::<u32>(Tag::SampleFormat).map_err(bad)?.unwrap_or(1);
+    if !matches!((bits, format), (8 | 16 | 32, 1 | 2) | (32 | 64, 3)) {
+        let kind = match format {
+            1 => "unsigned integer",
+            2 => "signed integer",
+            3 => "floating-point",
+            _ => "undefined",
+        };
+        return Err(BakeError::input(
+            path,
+            Some("header".into()),
+            format!(
+                "expected 8-, 16- or 32-bit integer or 32- or 64-bit float samples, found {bits}-bit {kind} samples"
+            ),
+        ));
+    }
     if options.channel.as_deref().is_some_and(|c| !c.eq_ignore_ascii_case("height")) {
         return Err(BakeError::input(path, None, "an elevation TIFF has one channel, `height`"));
+    }
+    // The tag is text of any claimed length: bound it before the decoder reads it.
+    let no_data_len = match decoder.ifd_pointer() {
+        Some(ifd) => decoder.read_directory(ifd).map_err(bad)?.get(Tag::GdalNodata).map(|e| e.count()),
+        None => None,
+    };
+    if let Some(len) = no_data_len.filter(|&n| n > 64) {
+        return Err(BakeError::input(
+            path,
+            Some("tag 42113 (GDAL_NODATA)".into()),
+            format!("expected a number of at most 64 characters, found {len} bytes"),
+        ));
     }
     let no_data = match decoder.find_tag(Tag::GdalNodata).map_err(bad)? {
         Some(v) => {
@@ -114,15 +134,19 @@ impl TiffFile {
 /// Decoded samples as heights, taken as stored.
 fn samples(path: &Path, decoded: DecodingResult) -> Result<Vec<f32>, BakeError> {
     Ok(match decoded {
+        DecodingResult::U8(v) => v.into_iter().map(f32::from).collect(),
+        DecodingResult::I8(v) => v.into_iter().map(f32::from).collect(),
         DecodingResult::U16(v) => v.into_iter().map(f32::from).collect(),
         DecodingResult::I16(v) => v.into_iter().map(f32::from).collect(),
+        DecodingResult::U32(v) => v.into_iter().map(|x| x as f32).collect(),
+        DecodingResult::I32(v) => v.into_iter().map(|x| x as f32).collect(),
         DecodingResult::F32(v) => v,
-        DecodingResult::U8(v) => v.into_iter().map(f32::from).collect(),
+        DecodingResult::F64(v) => v.into_iter().map(|x| x as f32).collect(),
         _ => {
             return Err(BakeError::input(
                 path,
                 Some("header".into()),
-                "expected 8- or 16-bit integer or 32-bit float samples",
+                "expected 8-, 16- or 32-bit integer or 32- or 64-bit float samples",
             ));
         }
     })

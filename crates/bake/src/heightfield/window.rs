@@ -1,19 +1,20 @@
-//! Heightfield files read a window at a time: what a tiled bake reads, so that its memory is
-//! bounded by the window and not by the map.
+//! A heightfield file opened for reading: the one place that tells formats apart, and reads
+//! the whole map or a window of it.
 //!
-//! Raw `.r16`/`.r32` and SRTM `.hgt` grids are read row by row from the window's columns;
-//! TIFF strips and tiles are decoded one chunk at a time, only those the window touches. PNG
-//! and OpenEXR have no random access: their image is decoded whole and the window cut from it.
-//! A window may reach past the map's edges (a tile's halo on a torus): its texels are then read
-//! around the torus. The samples are exactly those [`super::load_samples`] gives for the same
-//! texels, voids filled with the same value (the lowest valid sample of the whole file, which
-//! [`HeightSource::void_fill`] finds by reading the file once a chunk at a time).
+//! A whole read is the read of the window that is the whole map, so every reader shares one
+//! path and one set of checks. Raw `.r16`/`.r32` and SRTM `.hgt` grids are read row by row
+//! from the window's columns; TIFF strips and tiles are decoded one chunk at a time, only
+//! those the window touches. PNG and OpenEXR have no random access: their image is decoded
+//! whole and the window cut from it. A window may reach past the map's edges (a tile's halo on
+//! a torus): its texels are then read around the torus. Voids take one value for the whole
+//! file (its lowest valid sample, which [`HeightSource::void_fill`] finds by reading the file
+//! once a chunk at a time), so a window holds exactly the samples the whole map has there.
 
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
 use super::tiff::TiffFile;
-use super::{LoadOptions, Samples, hgt, load_samples, raw, tiff};
+use super::{LoadOptions, Samples, all_void, checked, exr, fill_voids, hgt, is_void, lowest_valid, png, raw, tiff};
 use crate::error::BakeError;
 
 /// A heightfield file opened for reading windows.
@@ -32,25 +33,47 @@ enum Format {
         hgt: bool,
     },
     Tiff(Box<TiffFile>),
-    /// A format without random access, decoded whole.
+    /// A format without random access, decoded whole (and checked) when opened.
     Whole(Samples),
 }
 
 impl HeightSource {
-    /// Opens `path` and reads its header (PNG and EXR: the whole image).
+    /// Opens `path` and reads its header (PNG and EXR: the whole image). SRTM tiles and raw
+    /// heightmaps are known by their extension (`.hgt`, `.r16`, `.r32`: those formats have no
+    /// signature), PNG, OpenEXR and TIFF by their first bytes. Anything but a regular file is
+    /// refused before it is read.
     pub fn open(path: &Path, options: &LoadOptions) -> Result<HeightSource, BakeError> {
+        hikage_bundle::files::regular_metadata(path).map_err(|e| BakeError::io(path, e))?;
         let (width, height, format) = if hgt::is_hgt(path) {
             let side = hgt::side(path, options)?;
             (side, side, Format::Rows { bytes: 2, hgt: true })
         } else if let Some(bytes) = raw::bytes_per_sample(path) {
             let (w, h) = raw::dimensions(path, options, bytes)?;
             (w, h, Format::Rows { bytes, hgt: false })
-        } else if is_tiff(path)? {
-            let file = tiff::open(path, options)?;
-            (file.width, file.height, Format::Tiff(Box::new(file)))
         } else {
-            let samples = load_samples(path, options)?;
-            (samples.width, samples.height, Format::Whole(samples))
+            let (magic, n) = read_magic(path)?;
+            if n < 4 {
+                return Err(BakeError::input(
+                    path,
+                    None,
+                    format!("expected a PNG, OpenEXR or TIFF image, found a {n}-byte file"),
+                ));
+            }
+            if tiff::is_tiff(&magic) {
+                let file = tiff::open(path, options)?;
+                (file.width, file.height, Format::Tiff(Box::new(file)))
+            } else if magic.starts_with(&[0x89, b'P', b'N', b'G']) || magic.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+                let samples = if magic[0] == 0x89 { png::load(path, options)? } else { exr::load(path, options)? };
+                let samples = checked(path, samples)?;
+                (samples.width, samples.height, Format::Whole(samples))
+            } else {
+                return Err(BakeError::input(
+                    path,
+                    Some("byte 0".into()),
+                    "expected a PNG, OpenEXR or TIFF signature (or a file named *.hgt, *.r16 or *.r32); other formats \
+                     are not read",
+                ));
+            }
         };
         Ok(HeightSource { path: path.to_path_buf(), width, height, format })
     }
@@ -69,21 +92,67 @@ impl HeightSource {
         }
     }
 
+    /// The whole map, voids filled, every sample finite.
+    pub fn read_all(mut self) -> Result<Samples, BakeError> {
+        let (normalized, channel) = self.channel();
+        let (width, height) = self.size();
+        let values = match self.format {
+            Format::Whole(samples) => return Ok(samples),
+            _ => {
+                let values = self.read_raw((0, 0), (width, height))?;
+                match self.no_data() {
+                    Some(no_data) => fill_voids(&self.path, values, no_data)?,
+                    None => values,
+                }
+            }
+        };
+        checked(&self.path, Samples { width, height, values, normalized, channel })
+    }
+
+    /// Visits every sample that is not a void, a block at a time, with its column and row:
+    /// finite, and whatever `check` asks of it (the message names the pixel). Reads little
+    /// more than one chunk of the file at a time, so a grid is checked in little memory.
+    pub fn scan(&mut self, check: &dyn Fn(f32) -> Result<(), String>) -> Result<(), BakeError> {
+        let no_data = self.no_data();
+        let mut first_bad: Option<(u32, u32, String)> = None;
+        let mut any_valid = false;
+        let (w, h) = self.size();
+        self.for_each_block((0, h), (0, w), &|_| true, &mut |Block { origin: (r0, c0), size: (bw, _), values }| {
+            if first_bad.is_some() {
+                return;
+            }
+            for (i, &v) in values.iter().enumerate() {
+                if no_data.is_some_and(|nd| is_void(v, nd)) {
+                    continue;
+                }
+                any_valid = true;
+                let problem =
+                    if v.is_finite() { check(v).err() } else { Some(format!("expected a finite height, found {v}")) };
+                if let Some(message) = problem {
+                    first_bad = Some((c0 + i as u32 % bw, r0 + i as u32 / bw, message));
+                    return;
+                }
+            }
+        })?;
+        if let Some((x, y, message)) = first_bad {
+            return Err(BakeError::input(&self.path, Some(format!("pixel ({x}, {y})")), message));
+        }
+        match no_data {
+            Some(nd) if !any_valid => Err(all_void(&self.path, w as u64 * h as u64, nd)),
+            _ => Ok(()),
+        }
+    }
+
     /// The value the file's voids take: its lowest valid sample, read a chunk at a time.
     /// `None` when the format marks no voids (or they were already filled on decoding).
     pub fn void_fill(&mut self) -> Result<Option<f32>, BakeError> {
         let Some(no_data) = self.no_data() else { return Ok(None) };
         let mut lowest = f32::INFINITY;
         self.for_each_block((0, self.height), (0, self.width), &|_| true, &mut |block| {
-            lowest = block.values.iter().copied().filter(|&v| v != no_data && v.is_finite()).fold(lowest, f32::min);
+            lowest = lowest_valid(block.values.iter().copied(), no_data, lowest);
         })?;
         if !lowest.is_finite() {
-            let count = self.width as u64 * self.height as u64;
-            return Err(BakeError::input(
-                &self.path,
-                None,
-                format!("every one of the {count} samples is no-data ({no_data})"),
-            ));
+            return Err(all_void(&self.path, self.width as u64 * self.height as u64, no_data));
         }
         Ok(Some(lowest))
     }
@@ -105,6 +174,26 @@ impl HeightSource {
         (w, h): (u32, u32),
         fill: Option<f32>,
     ) -> Result<Vec<f32>, BakeError> {
+        let mut out = self.read_raw((x, y), (w, h))?;
+        if let (Some(nd), Some(f)) = (self.no_data(), fill) {
+            out.iter_mut().filter(|v| is_void(**v, nd)).for_each(|v| *v = f);
+        }
+        if let Some(i) = out.iter().position(|v| !v.is_finite()) {
+            let wrap = |v: i64, n: u32| v.rem_euclid(n as i64);
+            let (u, v) =
+                (wrap(x + (i % w as usize) as i64, self.width), wrap(y + (i / w as usize) as i64, self.height));
+            return Err(BakeError::input(
+                &self.path,
+                Some(format!("pixel ({u}, {v})")),
+                format!("expected a finite height, found {}", out[i]),
+            ));
+        }
+        Ok(out)
+    }
+
+    /// The window's samples as stored (voids not filled, nothing checked); a sample no block
+    /// gave is NaN.
+    fn read_raw(&mut self, (x, y): (i64, i64), (w, h): (u32, u32)) -> Result<Vec<f32>, BakeError> {
         let wrap = |v: i64, n: u32| v.rem_euclid(n as i64) as u32;
         let cols: Vec<u32> = (0..w as i64).map(|i| wrap(x + i, self.width)).collect();
         let rows: Vec<u32> = (0..h as i64).map(|i| wrap(y + i, self.height)).collect();
@@ -122,7 +211,6 @@ impl HeightSource {
             at_row[(r - row_span.0) as usize].push(i as u32);
         }
         let mut out = vec![f32::NAN; w as usize * h as usize];
-        let no_data = self.no_data();
         self.for_each_block(
             row_span,
             col_span,
@@ -140,10 +228,6 @@ impl HeightSource {
                                 continue;
                             }
                             let v = values[(br * bw + bc) as usize];
-                            let v = match (no_data, fill) {
-                                (Some(nd), Some(f)) if v == nd => f,
-                                _ => v,
-                            };
                             for &wx in &at_col[(c - col_span.0) as usize] {
                                 out[wy as usize * w as usize + wx as usize] = v;
                             }
@@ -152,14 +236,6 @@ impl HeightSource {
                 }
             },
         )?;
-        if let Some(i) = out.iter().position(|v| !v.is_finite()) {
-            let (u, v) = (cols[i % w as usize], rows[i / w as usize]);
-            return Err(BakeError::input(
-                &self.path,
-                Some(format!("pixel ({u}, {v})")),
-                format!("expected a finite height, found {}", out[i]),
-            ));
-        }
         Ok(out)
     }
 
@@ -175,7 +251,7 @@ impl HeightSource {
         let path = self.path.as_path();
         match &mut self.format {
             Format::Rows { bytes, hgt } => {
-                let mut file = std::fs::File::open(path).map_err(|e| BakeError::io(path, e))?;
+                let mut file = hikage_bundle::files::open_regular(path).map_err(|e| BakeError::io(path, e))?;
                 let mut buf = vec![0u8; (cols.1 - cols.0) as usize * *bytes as usize];
                 for r in (rows.0..rows.1).filter(|&r| wanted(r)) {
                     let at = (r as u64 * self.width as u64 + cols.0 as u64) * *bytes;
@@ -212,10 +288,16 @@ struct Block<'a> {
     values: &'a [f32],
 }
 
-/// Whether `path` starts with a TIFF signature.
-fn is_tiff(path: &Path) -> Result<bool, BakeError> {
-    let mut magic = [0u8; 4];
-    let mut f = std::fs::File::open(path).map_err(|e| BakeError::io(path, e))?;
-    let n = f.read(&mut magic).map_err(|e| BakeError::io(path, e))?;
-    Ok(n == 4 && tiff::is_tiff(&magic))
+/// The first eight bytes of `path` and how many there were.
+fn read_magic(path: &Path) -> Result<([u8; 8], usize), BakeError> {
+    let mut magic = [0u8; 8];
+    let mut f = hikage_bundle::files::open_regular(path).map_err(|e| BakeError::io(path, e))?;
+    let mut n = 0;
+    while n < magic.len() {
+        match f.read(&mut magic[n..]).map_err(|e| BakeError::io(path, e))? {
+            0 => break,
+            k => n += k,
+        }
+    }
+    Ok((magic, n))
 }

@@ -16,7 +16,9 @@ pub fn ambient_occlusion(texture: &HorizonTexture) -> TextureData {
             for col in 0..w {
                 let (s, _) = decode(texture, k, row, col);
                 if s > 0.0 {
-                    occlusion[row * w + col] += s * s / (1.0 + s * s);
+                    // sin² β = s² / (1 + s²), which is 1 for a slope whose square overflows.
+                    let s2 = s * s;
+                    occlusion[row * w + col] += if s2.is_finite() { s2 / (1.0 + s2) } else { 1.0 };
                 }
             }
         }

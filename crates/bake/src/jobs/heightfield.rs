@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{BakedAsset, BakedPayload, Baker, JobContext};
 use crate::error::BakeError;
-use crate::heightfield::{Heightfield, LoadOptions, load_samples};
+use crate::heightfield::{HeightSource, Heightfield, LoadOptions, load_samples};
 
 /// Version of the import; part of the input hash.
 pub const ALGORITHM_VERSION: u32 = 1;
@@ -26,6 +26,18 @@ pub enum HeightFormat {
 }
 
 impl HeightFormat {
+    /// Whether a sample can be stored in this format without becoming infinite: a half float
+    /// holds at most ±65504 (a `.r32` in centimetres does not fit; store it as `R32Float`).
+    pub fn check(self, sample: f32) -> Result<(), String> {
+        const HALF_MAX: f32 = 65504.0;
+        match self {
+            HeightFormat::R16Float if sample.abs() > HALF_MAX => Err(format!(
+                "sample {sample} does not fit format R16Float (at most ±{HALF_MAX}): store heights as R32Float"
+            )),
+            _ => Ok(()),
+        }
+    }
+
     /// The texture format.
     pub fn texture_format(self) -> TextureFormat {
         match self {
@@ -105,15 +117,58 @@ impl HeightfieldJob {
         }
     }
 
-    /// Loads the input with the job's world units attached.
+    /// How the input is read.
+    fn load_options(&self, ctx: &JobContext) -> LoadOptions {
+        LoadOptions { channel: self.channel.clone(), max_dimension: ctx.limits.max_dimension, raw_size: self.raw_size }
+    }
+
+    /// Checks every sample of the input as [`load`](Self::load) would, a block of the file at
+    /// a time: finite, storable in the job's format, a finite world height.
+    pub fn scan(&self, ctx: &JobContext) -> Result<(), BakeError> {
+        let path = ctx.base_dir.join(&self.input);
+        let mut source = HeightSource::open(&path, &self.load_options(ctx))?;
+        let (w, h) = source.size();
+        self.check_extent(&path, w, h)?;
+        source.scan(&|v| self.check_sample(v))
+    }
+
+    /// A sample's storage and world height.
+    pub(super) fn check_sample(&self, v: f32) -> Result<(), String> {
+        self.format.check(v)?;
+        let world = self.height_offset + self.height_scale * v;
+        if !world.is_finite() {
+            return Err(format!(
+                "sample {v} gives world height {world} (height_offset + height_scale × sample): expected a finite one"
+            ));
+        }
+        Ok(())
+    }
+
+    /// The map's world extent, which horizon distances are measured in, must be finite.
+    pub(super) fn check_extent(&self, path: &Path, w: u32, h: u32) -> Result<(), BakeError> {
+        let (sx, sy) = self.texel_size;
+        if !((w as f32 * sx).is_finite() && (h as f32 * sy).is_finite()) {
+            return Err(BakeError::input(
+                path,
+                None,
+                format!("a {w}×{h} map of texel_size ({sx}, {sy}) spans no finite world extent"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Loads the input with the job's world units attached, every sample checked as
+    /// [`scan`](Self::scan) checks it.
     pub fn load(&self, ctx: &JobContext) -> Result<Heightfield, BakeError> {
         let path = ctx.base_dir.join(&self.input);
-        let options = LoadOptions {
-            channel: self.channel.clone(),
-            max_dimension: ctx.limits.max_dimension,
-            raw_size: self.raw_size,
-        };
-        let s = load_samples(&path, &options)?;
+        let s = load_samples(&path, &self.load_options(ctx))?;
+        self.check_extent(&path, s.width, s.height)?;
+        if let Some((i, message)) =
+            s.values.iter().enumerate().find_map(|(i, &v)| self.check_sample(v).err().map(|m| (i, m)))
+        {
+            let (x, y) = (i % s.width as usize, i / s.width as usize);
+            return Err(BakeError::input(&path, Some(format!("pixel ({x}, {y})")), message));
+        }
         Ok(Heightfield {
             width: s.width,
             height: s.height,
@@ -171,7 +226,7 @@ impl Baker for HeightfieldJob {
     }
 
     fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
-        self.load(ctx).map(|_| ())
+        self.scan(ctx)
     }
 
     fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {

@@ -11,7 +11,6 @@ use super::{BakedAsset, BakedPayload, Baker, JobContext};
 use crate::error::BakeError;
 use crate::heightfield::Heightfield;
 use crate::horizon::{self, DEFAULT_NEAR_FIELD, HorizonFormat, HorizonParams, OPEN_SKY_SLOPE};
-use crate::limits::InputLimits;
 
 /// Settings of a horizon bake. Asset ids: `<id>.height`, `<id>.horizon`, and `<id>.ao` with
 /// `ao: true`.
@@ -208,23 +207,20 @@ impl Baker for HorizonJob {
         Ok(())
     }
 
-    fn parts(&self, base_dir: &Path, limits: &InputLimits) -> Result<Option<Vec<Box<dyn Baker>>>, BakeError> {
+    fn parts(&self, ctx: &JobContext) -> Result<Option<Vec<Box<dyn Baker>>>, BakeError> {
         match self.tile {
-            Some(size) => super::horizon_tile::tiles(self, size, base_dir, limits).map(Some),
+            Some(size) => super::horizon_tile::tiles(self, size, ctx).map(Some),
             None => Ok(None),
         }
     }
 
     fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
-        match self.tile {
-            // Tiles read windows: the header is what they check first, and the map may not fit.
-            Some(_) => super::horizon_tile::open(self, ctx.base_dir, ctx.limits).map(|_| ()),
-            None => self.heightfield_job().load(ctx).map(|_| ()),
-        }
+        // A block of the file at a time, tiled or not: the map may not fit in memory.
+        self.heightfield_job().scan(ctx)
     }
 
     fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
-        if let Some(parts) = self.parts(ctx.base_dir, ctx.limits)? {
+        if let Some(parts) = self.parts(ctx)? {
             // The runner bakes the parts one by one; baked here, every tile is held at once.
             let mut assets = Vec::new();
             for part in parts {
@@ -233,11 +229,7 @@ impl Baker for HorizonJob {
             return Ok(assets);
         }
         let hf = self.heightfield_job().load(ctx)?;
-        let baked = horizon::bake(&hf, &self.params(), ctx.progress).map_err(|message| BakeError::Setting {
-            path: ctx.base_dir.join("pipeline.ron"),
-            job: self.id.clone(),
-            message,
-        })?;
+        let baked = horizon::bake(&hf, &self.params(), ctx.progress).map_err(|m| ctx.setting(&self.id, m))?;
         self.assets(&hf, baked, None)
     }
 }

@@ -40,15 +40,10 @@ pub struct HorizonTileJob {
 
 /// Splits `job` into its tiles of `size` texels, reading the input's header, hashing it once,
 /// and finding the value of its voids.
-pub(super) fn tiles(
-    job: &HorizonJob,
-    size: u32,
-    base_dir: &Path,
-    limits: &InputLimits,
-) -> Result<Vec<Box<dyn Baker>>, BakeError> {
+pub(super) fn tiles(job: &HorizonJob, size: u32, ctx: &JobContext) -> Result<Vec<Box<dyn Baker>>, BakeError> {
+    let (base_dir, limits) = (ctx.base_dir, ctx.limits);
     let path = base_dir.join(&job.input);
-    let setting =
-        |message: String| BakeError::Setting { path: base_dir.join("pipeline.ron"), job: job.id.clone(), message };
+    let setting = |message: String| ctx.setting(&job.id, message);
     let halo = horizon::halo(&job.params(), job.texel_size).map_err(setting)?;
     let mut source = open(job, base_dir, limits)?;
     let (w, h) = source.size();
@@ -173,6 +168,16 @@ impl Baker for HorizonTileJob {
         }
         let (wx, wy, ww, wh) = self.place.window;
         let samples = source.read_window((wx, wy), (ww, wh), self.void_fill)?;
+        // The checks a whole-map load makes, on the samples this tile reads.
+        let heights = self.job.heightfield_job();
+        heights.check_extent(&path, self.place.map.0, self.place.map.1)?;
+        if let Some((i, message)) =
+            samples.iter().enumerate().find_map(|(i, &v)| heights.check_sample(v).err().map(|m| (i, m)))
+        {
+            let (x, y) = ((wx + (i % ww as usize) as i64), (wy + (i / ww as usize) as i64));
+            let (x, y) = (x.rem_euclid(self.place.map.0 as i64), y.rem_euclid(self.place.map.1 as i64));
+            return Err(BakeError::input(&path, Some(format!("pixel ({x}, {y})")), message));
+        }
         let (normalized, source_channel) = source.channel();
         let window = Heightfield {
             width: ww,
@@ -185,9 +190,8 @@ impl Baker for HorizonTileJob {
             source_channel,
         };
         let params = self.job.params();
-        let baked = horizon::bake_tile(&window, &self.place, &params, ctx.progress).map_err(|message| {
-            BakeError::Setting { path: ctx.base_dir.join("pipeline.ron"), job: self.id.clone(), message }
-        })?;
+        let baked =
+            horizon::bake_tile(&window, &self.place, &params, ctx.progress).map_err(|m| ctx.setting(&self.id, m))?;
         self.job.assets(&self.tile_heights(&window), baked, Some(&self.placement()))
     }
 }

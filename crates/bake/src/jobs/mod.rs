@@ -101,7 +101,7 @@ pub trait Baker: Sync {
     /// writing; `None` when the job is baked whole. A tiled horizon job is one part per tile, so
     /// that shards share its tiles and each tile is written as soon as it is baked. It may read
     /// its inputs' headers (and an input once through, to hash it); it bakes nothing.
-    fn parts(&self, _base_dir: &Path, _limits: &InputLimits) -> Result<Option<Vec<Box<dyn Baker>>>, BakeError> {
+    fn parts(&self, _ctx: &JobContext) -> Result<Option<Vec<Box<dyn Baker>>>, BakeError> {
         Ok(None)
     }
 }
@@ -112,6 +112,13 @@ pub enum Unit<'a> {
     Job(&'a dyn Baker),
     /// A part of a job.
     Part(Box<dyn Baker>),
+}
+
+impl JobContext<'_> {
+    /// A setting error of job `job`, naming where the job was written.
+    pub fn setting(&self, job: &str, message: impl Into<String>) -> BakeError {
+        BakeError::Setting { path: self.source.to_path_buf(), job: job.to_string(), message: message.into() }
+    }
 }
 
 impl Unit<'_> {
@@ -125,8 +132,8 @@ impl Unit<'_> {
 }
 
 /// The units `job` is baked as: its parts, or itself.
-pub fn units<'a>(job: &'a dyn Baker, base_dir: &Path, limits: &InputLimits) -> Result<Vec<Unit<'a>>, BakeError> {
-    Ok(match job.parts(base_dir, limits)? {
+pub fn units<'a>(job: &'a dyn Baker, ctx: &JobContext) -> Result<Vec<Unit<'a>>, BakeError> {
+    Ok(match job.parts(ctx)? {
         Some(parts) => parts.into_iter().map(Unit::Part).collect(),
         None => vec![Unit::Job(job)],
     })
@@ -143,6 +150,9 @@ pub fn check(baker: &dyn Baker) -> Result<(), String> {
 
 /// What a job needs from its surroundings while it runs.
 pub struct JobContext<'a> {
+    /// Where the job was written: the pipeline file, or `<command line>` for a one-shot
+    /// command; setting errors name it.
+    pub source: &'a Path,
     /// Directory that input paths are relative to.
     pub base_dir: &'a Path,
     /// Limits applied to inputs before they are decoded.

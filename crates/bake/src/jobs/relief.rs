@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 use super::heightfield::HeightfieldJob;
 use super::{BakedAsset, BakedPayload, Baker, JobContext};
 use crate::error::BakeError;
+use crate::heightfield::{HeightSource, LoadOptions};
 use crate::relief::{self, ReliefFormat, ReliefParams};
 
 /// Version of the relief job; part of the input hash.
@@ -196,7 +197,20 @@ impl Baker for ReliefJob {
     }
 
     fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
-        self.load(ctx).map(|_| ())
+        // A block of the file at a time, with the checks `load` makes.
+        let path = ctx.base_dir.join(&self.input);
+        let options =
+            LoadOptions { channel: self.channel.clone(), max_dimension: ctx.limits.max_dimension, raw_size: None };
+        let mut source = HeightSource::open(&path, &options)?;
+        let (w, h) = source.size();
+        self.params().check_for(w, h).map_err(|m| BakeError::input(&path, None, m))?;
+        source.scan(&|v| {
+            if (0.0..=1.0).contains(&v) {
+                Ok(())
+            } else {
+                Err(format!("relief heights must lie in [0, 1] (depth = 1 − height); the sample is {v}"))
+            }
+        })
     }
 
     fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {

@@ -233,12 +233,13 @@ fn buffer_from_uri(gltf: &Path, uri: &str, budget: &mut u64) -> Result<Vec<u8>, 
     let relative = local_file(uri)
         .ok_or_else(|| format!("buffer uri {uri:?} must be a data: URI or a file name beside the glTF"))?;
     let file = gltf.parent().unwrap_or(Path::new(".")).join(relative);
-    let len = std::fs::metadata(&file).map_err(|e| format!("{}: {e}", file.display()))?.len();
+    let len = hikage_bundle::files::regular_metadata(&file).map_err(|e| format!("{}: {e}", file.display()))?.len();
     if len > *budget {
         return Err(format!("{} ({len} bytes) exceeds the size limit", file.display()));
     }
-    *budget -= len;
-    std::fs::read(&file).map_err(|e| format!("{}: {e}", file.display()))
+    let data = hikage_bundle::files::read_limited(&file, *budget, "buffer size").map_err(|e| e.to_string())?;
+    *budget -= data.len() as u64;
+    Ok(data)
 }
 
 /// Decodes standard base64 (padding optional).

@@ -27,7 +27,7 @@ pub fn load(path: &Path, limits: MeshLimits) -> Result<Mesh, BakeError> {
     let gltf_name = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"));
     let glb_magic = || {
         let mut head = [0u8; 4];
-        std::fs::File::open(path).and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head)).is_ok()
+        hikage_bundle::files::open_regular(path).and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head)).is_ok()
             && gltf::is_glb(&head)
     };
     if gltf_name || glb_magic() { gltf::load(path, limits) } else { obj::load(path, limits) }
@@ -35,11 +35,7 @@ pub fn load(path: &Path, limits: MeshLimits) -> Result<Mesh, BakeError> {
 
 /// The bytes of `path`, refused by name (`what`) when the file is larger than `max_bytes`.
 fn read_limited(path: &Path, max_bytes: u64, what: &str) -> Result<Vec<u8>, BakeError> {
-    let len = std::fs::metadata(path).map_err(|e| BakeError::io(path, e))?.len();
-    if len > max_bytes {
-        return Err(BakeError::Limit { path: path.to_path_buf(), what: what.into(), value: len, limit: max_bytes });
-    }
-    std::fs::read(path).map_err(|e| BakeError::io(path, e))
+    Ok(hikage_bundle::files::read_limited(path, max_bytes, what)?)
 }
 
 /// A triangle mesh whose vertices are unique (position, texture coordinate) pairs, with the

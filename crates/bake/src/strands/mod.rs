@@ -38,16 +38,7 @@ pub fn load(path: &Path) -> Result<Strands, BakeError> {
     let limits = HairLimits::default();
     // The largest file the limits allow: header, segments, and every per-point array.
     let max_bytes = 128 + 2 * limits.max_strands + 32 * limits.max_points;
-    let len = std::fs::metadata(path).map_err(|e| BakeError::io(path, e))?.len();
-    if len > max_bytes {
-        return Err(BakeError::Limit {
-            path: path.into(),
-            what: "strand file size".into(),
-            value: len,
-            limit: max_bytes,
-        });
-    }
-    let bytes = std::fs::read(path).map_err(|e| BakeError::io(path, e))?;
+    let bytes = hikage_bundle::files::read_limited(path, max_bytes, "strand file size")?;
     if bytes.starts_with(b"HAIR") || bytes.starts_with(b"hair") {
         return cyhair::decode(&bytes, &limits).map_err(|e| match e.over_limit {
             Some((value, limit)) => {

@@ -92,7 +92,8 @@ pub(super) fn encode(format: HorizonFormat, slope: f32, dist: f32, distance_scal
             put_f16(out, half::f16::from_f32(s), half::f16::from_f32(d));
         }
         HorizonFormat::Rg32Float => {
-            out[..4].copy_from_slice(&slope.to_le_bytes());
+            // A slope past f32 (heights far apart over tiny texels) is vertical: it saturates.
+            out[..4].copy_from_slice(&slope.clamp(-f32::MAX, f32::MAX).to_le_bytes());
             out[4..8].copy_from_slice(&dist.to_le_bytes());
         }
     }
