@@ -57,10 +57,11 @@ fn concurrent_one_shots_lose_nothing() {
     }
 }
 
-/// Two different pipelines baking into one bundle at once: the result is exactly one of them
-/// (a pipeline owns its bundle: its result replaces the assets it did not make), and valid.
+/// Two different pipelines baking into one bundle at once: the first to commit owns it, and
+/// the other is refused by name (never a silent overwrite); the bundle is always exactly the
+/// owner's, and valid.
 #[test]
-fn concurrent_pipelines_leave_exactly_one_of_them() {
+fn concurrent_pipelines_leave_exactly_the_owners() {
     let dir = Dir::new("concurrent_pipelines");
     dir.write("a/x.png", png(1));
     dir.write("b/y.png", png(2));
@@ -80,15 +81,23 @@ fn concurrent_pipelines_leave_exactly_one_of_them() {
         std::fs::read(r.path("common/bundle.ron")).unwrap()
     };
     let (ra, rb) = (reference("a/pipeline.ron"), reference("b/pipeline.ron"));
+    let mut owner = None;
     for round in 0..10 {
         let children = [spawn(&dir, &["bake", "a/pipeline.ron"]), spawn(&dir, &["bake", "b/pipeline.ron"])];
-        for c in children {
-            let out = c.wait_with_output().unwrap();
-            assert!(out.status.success(), "round {round}: {}", String::from_utf8_lossy(&out.stderr));
-        }
+        let outs: Vec<_> = children.into_iter().map(|c| c.wait_with_output().unwrap()).collect();
+        let ok: Vec<usize> = (0..2).filter(|&i| outs[i].status.success()).collect();
+        assert_eq!(ok.len(), 1, "round {round}: exactly one pipeline commits");
+        let refused = &outs[1 - ok[0]];
+        assert_eq!(refused.status.code(), Some(1), "round {round}");
+        let err = String::from_utf8_lossy(&refused.stderr);
+        assert!(
+            err.contains("a/pipeline.ron") && err.contains("b/pipeline.ron") && err.contains("belongs to"),
+            "{err}"
+        );
+        assert_eq!(*owner.get_or_insert(ok[0]), ok[0], "round {round}: the owner keeps its bundle");
         dir.run(&["validate", "common"]);
         let manifest = std::fs::read(dir.path("common/bundle.ron")).unwrap();
-        assert!(manifest == ra || manifest == rb, "round {round}: the bundle is neither pipeline's");
+        assert_eq!(manifest, if ok[0] == 0 { ra.clone() } else { rb.clone() }, "round {round}");
     }
 }
 

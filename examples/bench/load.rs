@@ -86,7 +86,7 @@ fn row(name: &str, dir: &Path) {
     );
 }
 
-fn copy_dir(from: &Path, to: &Path) {
+pub fn copy_dir(from: &Path, to: &Path) {
     std::fs::create_dir_all(to).expect("a scratch directory");
     for e in std::fs::read_dir(from).expect("data/ exists").flatten() {
         if e.file_type().is_ok_and(|t| t.is_file()) {

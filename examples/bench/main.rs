@@ -4,13 +4,15 @@
 //! cargo run --release --example bench              # every table
 //! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load
 //! cargo run --release --example bench -- scale     # tiled bakes: ~20 min, ~50 GiB of disk
+//! cargo run --release --example bench -- build-script   # clean builds of a game crate: ~15 min
 //! ```
 //!
-//! `scale` runs only when named: its bakes take minutes each and write tens of GiB.
+//! `scale` and `build-script` run only when named: their bakes and builds take minutes each.
 //!
 //! Every figure is the best of several runs (machines here are noisy), with its baseline
 //! measured in the same run. Set `RAYON_NUM_THREADS` to change the thread count.
 
+mod build_script;
 mod fit;
 mod hair;
 mod horizon;
@@ -95,5 +97,8 @@ fn main() {
     }
     if args.iter().any(|a| a == "scale") {
         scale::run();
+    }
+    if args.iter().any(|a| a == "build-script") {
+        build_script::run();
     }
 }

@@ -40,10 +40,13 @@ pub enum BakeError {
         message: String,
     },
     /// A job's settings are out of range or inconsistent.
-    #[error("{}: job `{job}`: {message}", path.display())]
+    #[error("{}{}: job `{job}`: {message}", path.display(), place.map(|(l, c)| format!(":{l}:{c}")).unwrap_or_default())]
     Setting {
         /// The pipeline file (or `<command line>`).
         path: PathBuf,
+        /// 1-based line and column of the setting (or of the job) in the pipeline file, when
+        /// known.
+        place: Option<(usize, usize)>,
         /// The job id.
         job: String,
         /// What is wrong and what is accepted.

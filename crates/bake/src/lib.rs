@@ -1,25 +1,31 @@
 //! hikage-bake: turns source assets into bundle payloads.
 //!
-//! - [`heightfield`] imports PNG (8/16-bit) and OpenEXR (f16/f32) heightfields with their world
-//!   units (texel size, height scale and offset; see `docs/conventions.md`).
+//! - [`heightfield`] imports heightfields — PNG (8/16-bit), OpenEXR (f16/f32), TIFF/GeoTIFF,
+//!   SRTM `.hgt` and raw `.r16`/`.r32` — with their world units (texel size, height scale and
+//!   offset; see `docs/conventions.md`), whole or a window at a time. PNG, OpenEXR and TIFF are
+//!   the `png`, `exr` and `tiff` features (on by default).
 //! - [`pipeline`] parses `pipeline.ron`: the output bundle and a list of jobs.
 //! - [`run`] runs a pipeline incrementally: a job whose input hash (input bytes, canonical
 //!   settings, baker algorithm version) matches the existing asset is skipped, and the bundle
-//!   is replaced atomically. [`run::run_for_build_script`] is the one call a `build.rs` needs.
+//!   is replaced atomically. [`build::BuildScript`] is what a `build.rs` calls: it bakes into
+//!   `OUT_DIR` and tells cargo where the bundle is and what to watch.
 //! - [`jobs`] holds the job kinds (`Heightfield`, `Horizon`, `Curvature`, `Relief`, `Strands`)
 //!   behind one [`Baker`] interface; [`horizon`], [`relief`], [`strands`] and [`curvature`] are
 //!   the algorithms they call, usable on their own.
 //! - [`export`] writes assets back out: textures as EXR or raw little-endian f32, meshes as
 //!   binary glTF.
+//! - [`shard`] splits a pipeline over machines (`--shard K/N`) and merges the parts; [`cache`]
+//!   shares baked payloads between checkouts and machines by input hash.
 //!
-//! The library never prints (except the `cargo:` lines a build script asks for); progress goes
-//! to an [`run::Observer`].
+//! The library never prints (except the `cargo::` lines a build script asks for, in
+//! [`build`]); progress goes to an [`run::Observer`].
 //!
 //! ```no_run
 //! // build.rs
-//! hikage_bake::run::run_for_build_script("assets/pipeline.ron".as_ref()).unwrap();
+//! hikage_bake::build::BuildScript::new("assets/pipeline.ron").bake();
 //! ```
 
+pub mod build;
 pub mod cache;
 pub mod curvature;
 mod error;

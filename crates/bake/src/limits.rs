@@ -7,17 +7,19 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InputLimits {
-    /// Largest image width or height, 1 to [`MAX_DIMENSION`].
+    /// Largest image width or height, 1 to [`InputLimits::MAX_DIMENSION`].
     #[serde(default = "default_max_dimension")]
     pub max_dimension: u32,
 }
 
-/// The largest `max_dimension` a pipeline may set: 65536² samples of f32 are 16 GiB, and
-/// the readers size their buffers from it.
-pub const MAX_DIMENSION: u32 = 65_536;
-
 fn default_max_dimension() -> u32 {
     16_384
+}
+
+impl InputLimits {
+    /// The largest `max_dimension` a pipeline may set: 65536² samples of f32 are 16 GiB, and
+    /// the readers size their buffers from it.
+    pub const MAX_DIMENSION: u32 = 65_536;
 }
 
 impl Default for InputLimits {

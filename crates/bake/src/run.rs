@@ -118,7 +118,7 @@ pub fn run_loaded(loaded: &LoadedPipeline, options: &RunOptions) -> Result<RunRe
 /// current directory.
 pub fn run_one_job(job: &Job, bundle: &Path, options: &RunOptions) -> Result<RunReport, BakeError> {
     let loaded = LoadedPipeline::one_job(job.clone(), bundle);
-    loaded.pipeline.check(&loaded.path)?;
+    loaded.check()?;
     with_threads(options.threads, || run_jobs(&loaded, options, WriteMode::Update))
 }
 
@@ -128,11 +128,17 @@ fn run_jobs(loaded: &LoadedPipeline, options: &RunOptions, mode: WriteMode) -> R
     let out = loaded.output_dir();
     let mut writer =
         if options.force { BundleWriter::open_ignoring_previous(&out, mode)? } else { BundleWriter::open(&out, mode)? };
+    if mode == WriteMode::Replace {
+        // A pipeline owns its bundle: another pipeline's is refused by name at the commit,
+        // unless that pipeline file is gone (a moved checkout) or --force takes the bundle over.
+        let owner = std::fs::canonicalize(&loaded.path).unwrap_or_else(|_| loaded.path.clone());
+        writer.set_owner(&owner.display().to_string(), options.force);
+    }
     let mut report = RunReport { bundle: out.clone(), ..Default::default() };
     report.watched.push(loaded.path.clone());
     report.watched.extend(loaded.pipeline.jobs.iter().flat_map(|j| j.baker().inputs(&loaded.base_dir)));
-    let units: Vec<Unit> =
-        split(loaded)?.into_iter().filter(|unit| options.shard.is_none_or(|s| s.has(unit.baker().id()))).collect();
+    let units: Vec<(usize, Unit)> =
+        split(loaded)?.into_iter().filter(|(_, unit)| options.shard.is_none_or(|s| s.has(unit.baker().id()))).collect();
     let cache = match (&options.cache, &loaded.pipeline.cache) {
         (Some(c), _) => Some(c.clone()),
         (None, Some(dir)) => match Cache::open(&loaded.resolve(dir), cache::DEFAULT_MAX_GIB) {
@@ -145,11 +151,9 @@ fn run_jobs(loaded: &LoadedPipeline, options: &RunOptions, mode: WriteMode) -> R
         (None, None) => None,
     };
     let mut baked = Vec::new();
-    for (index, unit) in units.iter().enumerate() {
-        let job = unit.baker();
-        if let Some(made) =
-            run_job(&mut writer, job, loaded, cache.as_ref(), options, (index, units.len()), &mut report)?
-        {
+    for (position, (index, unit)) in units.iter().enumerate() {
+        let run = UnitRun { job: unit.baker(), index: *index, position: (position, units.len()) };
+        if let Some(made) = run_job(&mut writer, &run, loaded, cache.as_ref(), options, &mut report)? {
             baked.push(made);
         }
     }
@@ -173,46 +177,54 @@ fn run_jobs(loaded: &LoadedPipeline, options: &RunOptions, mode: WriteMode) -> R
 /// The units the pipeline's jobs are baked as (a tiled job's tiles, every other job whole),
 /// with every asset id made once and no more than [`MAX_ASSETS`] in all: what `bake` and
 /// `validate PIPELINE` both check before baking anything.
-pub(crate) fn split(loaded: &LoadedPipeline) -> Result<Vec<Unit<'_>>, BakeError> {
+pub(crate) fn split(loaded: &LoadedPipeline) -> Result<Vec<(usize, Unit<'_>)>, BakeError> {
     let mut units = Vec::new();
     let mut made: BTreeMap<String, String> = BTreeMap::new();
-    for job in loaded.pipeline.jobs.iter().map(Job::baker) {
+    for (index, job) in loaded.pipeline.jobs.iter().map(Job::baker).enumerate() {
         let progress = |_: u64, _: u64| {};
-        let ctx = loaded.context(&progress);
+        let ctx = loaded.context(index, &progress);
         for unit in jobs::units(job, &ctx)? {
             for id in unit.baker().outputs() {
                 if let Some(other) = made.insert(id.clone(), job.id().to_string()) {
-                    return Err(loaded.setting(job.id(), format!("asset id `{id}` is also made by job `{other}`")));
+                    let message = format!("asset id `{id}` is also made by job `{other}`");
+                    return Err(loaded.setting(index, job.id(), message));
                 }
             }
-            units.push(unit);
+            units.push((index, unit));
         }
         if made.len() > MAX_ASSETS {
-            return Err(loaded.setting(
-                job.id(),
-                format!(
-                    "the pipeline would make {} assets with this job, above the {MAX_ASSETS} a bundle's manifest can                      hold: use larger tiles",
-                    made.len()
-                ),
-            ));
+            let message = format!(
+                "the pipeline would make {} assets with this job, above the {MAX_ASSETS} a bundle's manifest can hold: \
+                 use larger tiles",
+                made.len()
+            );
+            return Err(loaded.setting(index, job.id(), message));
         }
     }
     Ok(units)
+}
+
+/// A unit of work of a run: its baker, the index of the pipeline job it belongs to, and its
+/// position among the run's units (for progress).
+struct UnitRun<'a> {
+    job: &'a dyn Baker,
+    index: usize,
+    position: (usize, usize),
 }
 
 /// Bakes one unit into `writer`, or keeps its assets when its input hash is unchanged, or takes
 /// them from the cache. Returns the input hash and assets of a unit it baked, for the cache.
 fn run_job(
     writer: &mut BundleWriter,
-    job: &dyn Baker,
+    run: &UnitRun,
     loaded: &LoadedPipeline,
     cache: Option<&Cache>,
     options: &RunOptions,
-    (index, total): (usize, usize),
     report: &mut RunReport,
 ) -> Result<Option<(String, Vec<Asset>)>, BakeError> {
+    let job = run.job;
     let id = job.id().to_string();
-    options.observer.job_started(index, total, &id, job.kind());
+    options.observer.job_started(run.position.0, run.position.1, &id, job.kind());
     let hash = crate::hash::job_hash(job, &loaded.base_dir, &loaded.pipeline.limits)?;
     let outputs = job.outputs();
     let reusable: Option<Vec<_>> =
@@ -234,7 +246,7 @@ fn run_job(
         return Ok(None);
     }
     let progress = |done: u64, all: u64| options.observer.progress(&id, done, all);
-    let ctx = loaded.context(&progress);
+    let ctx = loaded.context(run.index, &progress);
     let mut made = Vec::new();
     for asset in job.bake(&ctx)? {
         made.push(
@@ -242,7 +254,7 @@ fn run_job(
                 BakedPayload::Texture(t) => writer.put_texture(&asset.id, asset.settings, &hash, t),
                 BakedPayload::Mesh(m) => writer.put_mesh(&asset.id, asset.settings, &hash, m),
             }
-            .map_err(|e| loaded.baked_error(&id, e))?,
+            .map_err(|e| loaded.baked_error(run.index, &id, e))?,
         );
     }
     report.baked.push(id.clone());
@@ -271,20 +283,10 @@ pub fn check_pipeline(path: &Path, observer: &dyn Observer) -> Result<PipelineCh
         let job = job.baker();
         observer.job_started(index, total, job.id(), job.kind());
         let progress = |_: u64, _: u64| {};
-        job.check_inputs(&loaded.context(&progress))?;
+        job.check_inputs(&loaded.context(index, &progress))?;
         check.jobs.push(job.id().to_string());
         check.inputs.extend(job.inputs(&loaded.base_dir));
         observer.job_finished(job.id(), false);
     }
     Ok(check)
-}
-
-/// The one call a `build.rs` needs: runs the pipeline and prints `cargo:rerun-if-changed=` for
-/// the pipeline file and every input, so Cargo re-runs the build script when one changes.
-pub fn run_for_build_script(path: &Path) -> Result<RunReport, BakeError> {
-    let report = run_pipeline(path, &RunOptions::default())?;
-    for p in &report.watched {
-        println!("cargo:rerun-if-changed={}", p.display());
-    }
-    Ok(report)
 }

@@ -93,6 +93,20 @@ pub enum BundleError {
         /// What was asked for and what exists.
         message: String,
     },
+    /// A pipeline tried to replace a bundle another pipeline owns.
+    #[error(
+        "{}: the bundle belongs to the pipeline {owner}, and {writer} may not replace it: give one of \
+         them another output, or bake with --force to take the bundle over",
+        path.display()
+    )]
+    Owned {
+        /// The bundle directory.
+        path: PathBuf,
+        /// The pipeline that owns it.
+        owner: String,
+        /// The pipeline that tried to write it.
+        writer: String,
+    },
     /// Data handed to a writer is inconsistent (wrong byte count, duplicate id).
     #[error("{0}")]
     InvalidData(String),
@@ -111,6 +125,7 @@ impl BundleError {
             BundleError::Ktx2 { .. } => "ktx2",
             BundleError::Limit { .. } => "limit",
             BundleError::Lookup { .. } => "lookup",
+            BundleError::Owned { .. } => "owned",
             BundleError::InvalidData(_) => "invalid_data",
         }
     }

@@ -52,7 +52,7 @@ pub use names::{check_asset_id, is_valid_asset_id, payload_file_name};
 pub use texture::{Supercompression, TextureData, TextureDesc, TextureDimension, TextureFormat};
 pub use validate::{Problem, Report, check_payload, validate};
 pub use version::FormatVersion;
-pub use writer::{BundleWriter, CommitSummary, LOCK_FILE, WriteMode};
+pub use writer::{BundleWriter, CommitSummary, LOCK_FILE, OWNER_FILE, WriteMode};
 
 /// The generator string written into manifests by this version of hikage.
 pub const GENERATOR: &str = concat!("hikage ", env!("CARGO_PKG_VERSION"));

@@ -59,6 +59,10 @@ const WRITER_PREFIX: &str = ".hikage-writer-";
 /// later commit once no reader can hold them. One file name per line.
 pub const RETIRED_FILE: &str = ".hikage-retired";
 
+/// The pipeline a bundle belongs to (`WriteMode::Replace` writers record and check it): one
+/// line naming it.
+pub const OWNER_FILE: &str = ".hikage-owner";
+
 /// What the new manifest is made of.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum WriteMode {
@@ -100,6 +104,8 @@ pub struct BundleWriter {
     /// A shared lock on the readers' lock file while the writer may read payloads of the
     /// previous manifest (to keep them).
     reading: Option<fs::File>,
+    /// The owner this writer commits as, and whether it may take over another's bundle.
+    owner: Option<(String, bool)>,
 }
 
 impl BundleWriter {
@@ -141,12 +147,26 @@ impl BundleWriter {
             tag,
             alive: Some((file, path)),
             reading,
+            owner: None,
         })
     }
 
     /// The bundle directory.
     pub fn dir(&self) -> &Path {
         &self.dir
+    }
+
+    /// The owner recorded in the bundle (the pipeline that last replaced it), if any.
+    pub fn recorded_owner(&self) -> Option<String> {
+        read_owner(&self.dir)
+    }
+
+    /// Commits as `owner` (the path of a pipeline file): the commit is refused when another
+    /// owner is recorded whose file still exists, unless `take_over`, and records `owner`
+    /// afterwards. Two pipelines sharing one output then fail by name instead of the last writer
+    /// silently winning; a checkout that moved takes its bundle back.
+    pub fn set_owner(&mut self, owner: &str, take_over: bool) {
+        self.owner = Some((owner.to_string(), take_over));
     }
 
     /// The manifest that was in place when the writer opened, if any.
@@ -307,6 +327,15 @@ impl BundleWriter {
             Err(fs::TryLockError::Error(e)) => return Err(BundleError::io(&lock_path, e)),
         }
 
+        // 0. Whose bundle it is.
+        if let Some((owner, take_over)) = &self.owner
+            && let Some(recorded) = read_owner(&self.dir).filter(|r| r != owner)
+            && !take_over
+            && Path::new(&recorded).exists()
+        {
+            return Err(BundleError::Owned { path: self.dir.clone(), owner: recorded, writer: owner.clone() });
+        }
+
         // 1. The manifest as it is now, with this writer's changes, checked as a reader will.
         let current = current_manifest(&self.dir, self.ignore_bad)?;
         let new = self.apply(current.as_ref());
@@ -347,6 +376,14 @@ impl BundleWriter {
                 return Err(e);
             }
         };
+
+        // Best effort: a record that cannot be written only weakens the next check.
+        if let Some((owner, _)) = &self.owner
+            && read_owner(&self.dir).as_ref() != Some(owner)
+        {
+            let _ = stage(&self.dir, &self.tag, OWNER_FILE, format!("{owner}\n").as_bytes())
+                .and_then(|temp| fs::rename(&temp, self.dir.join(OWNER_FILE)).map_err(|e| BundleError::io(&temp, e)));
+        }
 
         // 4. Retired payloads: the replaced manifest's at once when no reader can hold them,
         // else one commit later; and what killed writers left. The commit has happened: a file
@@ -452,6 +489,12 @@ fn read_retired(dir: &Path) -> BTreeSet<String> {
         return BTreeSet::new();
     };
     String::from_utf8_lossy(&bytes).lines().filter(|l| looks_like_payload(l)).map(str::to_string).collect()
+}
+
+/// The owner recorded in `dir`, if any (the first line of `.hikage-owner`, at most 64 KiB).
+fn read_owner(dir: &Path) -> Option<String> {
+    let bytes = crate::files::read_limited(&dir.join(OWNER_FILE), 64 << 10, "owner record size").ok()?;
+    String::from_utf8_lossy(&bytes).lines().next().map(str::to_string).filter(|l| !l.is_empty())
 }
 
 /// Replaces `.hikage-retired` with `names` (through a synced temporary file and a rename), or

@@ -8,10 +8,6 @@
 
 use std::path::Path;
 
-use exr::prelude::{
-    AnyChannel, AnyChannels, Encoding, FlatSamples, Image, ImageAttributes, IntegerBounds, Layer, LayerAttributes,
-    SmallVec, Text, WritableImage,
-};
 use hikage_bundle::{Bundle, TextureData};
 
 use crate::error::BakeError;
@@ -65,6 +61,7 @@ pub fn export_texture(
     let names = &tex.desc.channels;
     let picked: Vec<usize> = match channel {
         Some(c) => vec![resolve_channel(names, c).ok_or_else(|| BakeError::Setting {
+            place: None,
             path: bundle.dir().join(hikage_bundle::MANIFEST_FILE),
             job: id.to_string(),
             message: format!("no channel {c:?}; the asset has {}", names.join(", ")),
@@ -112,7 +109,21 @@ fn raw_bytes(tex: &TextureData, all: &[f32], picked: &[usize]) -> Vec<u8> {
     out
 }
 
+#[cfg(not(feature = "exr"))]
+fn exr_bytes(_: &TextureData, _: &[f32], _: &[usize], out: &Path) -> Result<Vec<u8>, BakeError> {
+    Err(BakeError::input(
+        out,
+        None,
+        "this build of hikage-bake writes no OpenEXR: enable its `exr` feature, or export --raw",
+    ))
+}
+
+#[cfg(feature = "exr")]
 fn exr_bytes(tex: &TextureData, all: &[f32], picked: &[usize], out: &Path) -> Result<Vec<u8>, BakeError> {
+    use exr::prelude::{
+        AnyChannel, AnyChannels, Encoding, FlatSamples, Image, ImageAttributes, IntegerBounds, Layer, LayerAttributes,
+        SmallVec, Text, WritableImage,
+    };
     let (w, h, _) = tex.desc.level_extent(0);
     let slices = tex.desc.slices() as usize;
     let n = tex.desc.format.channels();

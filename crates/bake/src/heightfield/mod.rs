@@ -11,10 +11,13 @@
 //! else `R`, else its only channel; with several channels and none of those, it is an error
 //! listing them. Only the first layer of a multi-layer EXR is read.
 
+#[cfg(feature = "exr")]
 mod exr;
 mod hgt;
+#[cfg(feature = "png")]
 mod png;
 mod raw;
+#[cfg(feature = "tiff")]
 mod tiff;
 mod window;
 

@@ -13,14 +13,6 @@ use tiff::tags::Tag;
 use super::{LoadOptions, check_dimensions};
 use crate::error::BakeError;
 
-/// Whether `magic` starts a TIFF file (either byte order; BigTIFF too).
-pub(super) fn is_tiff(magic: &[u8]) -> bool {
-    magic.starts_with(b"II*\0")
-        || magic.starts_with(b"MM\0*")
-        || magic.starts_with(b"II+\0")
-        || magic.starts_with(b"MM\0+")
-}
-
 /// The first image of a TIFF, opened: its header read and checked, no sample decoded yet.
 pub(super) struct TiffFile {
     decoder: Decoder<std::io::BufReader<std::fs::File>>,

@@ -13,8 +13,9 @@
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
-use super::tiff::TiffFile;
-use super::{LoadOptions, Samples, all_void, checked, exr, fill_voids, hgt, is_void, lowest_valid, png, raw, tiff};
+#[cfg(feature = "tiff")]
+use super::tiff::{self, TiffFile};
+use super::{LoadOptions, Samples, all_void, checked, fill_voids, hgt, is_void, lowest_valid, raw};
 use crate::error::BakeError;
 
 /// A heightfield file opened for reading windows.
@@ -28,10 +29,8 @@ pub struct HeightSource {
 enum Format {
     /// Rows of fixed-size samples with no header: `.r16`/`.r32` (little-endian), `.hgt`
     /// (big-endian i16, voids).
-    Rows {
-        bytes: u64,
-        hgt: bool,
-    },
+    Rows { bytes: u64, hgt: bool },
+    #[cfg(feature = "tiff")]
     Tiff(Box<TiffFile>),
     /// A format without random access, decoded whole (and checked) when opened.
     Whole(Samples),
@@ -59,13 +58,12 @@ impl HeightSource {
                     format!("expected a PNG, OpenEXR or TIFF image, found a {n}-byte file"),
                 ));
             }
-            if tiff::is_tiff(&magic) {
-                let file = tiff::open(path, options)?;
-                (file.width, file.height, Format::Tiff(Box::new(file)))
-            } else if magic.starts_with(&[0x89, b'P', b'N', b'G']) || magic.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
-                let samples = if magic[0] == 0x89 { png::load(path, options)? } else { exr::load(path, options)? };
-                let samples = checked(path, samples)?;
-                (samples.width, samples.height, Format::Whole(samples))
+            if is_tiff(&magic) {
+                open_tiff(path, options)?
+            } else if magic.starts_with(&[0x89, b'P', b'N', b'G']) {
+                whole(path, load_png(path, options)?)?
+            } else if magic.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+                whole(path, load_exr(path, options)?)?
             } else {
                 return Err(BakeError::input(
                     path,
@@ -160,6 +158,7 @@ impl HeightSource {
     fn no_data(&self) -> Option<f32> {
         match &self.format {
             Format::Rows { hgt: true, .. } => Some(f32::from(hgt::VOID)),
+            #[cfg(feature = "tiff")]
             Format::Tiff(f) => f.no_data,
             _ => None,
         }
@@ -261,6 +260,7 @@ impl HeightSource {
                     f(Block { origin: (r, cols.0), size: (cols.1 - cols.0, 1), values: &values });
                 }
             }
+            #[cfg(feature = "tiff")]
             Format::Tiff(file) => {
                 let ((cw, ch), across) = file.chunk_grid();
                 for cy in rows.0 / ch..rows.1.div_ceil(ch) {
@@ -286,6 +286,58 @@ struct Block<'a> {
     /// Width and height.
     size: (u32, u32),
     values: &'a [f32],
+}
+
+/// Whether `magic` starts a TIFF file (either byte order; BigTIFF too).
+fn is_tiff(magic: &[u8]) -> bool {
+    [b"II*\0", b"MM\0*", b"II+\0", b"MM\0+"].iter().any(|m| magic.starts_with(*m))
+}
+
+/// The size and format of a decoded whole image, its samples checked.
+fn whole(path: &Path, samples: Samples) -> Result<(u32, u32, Format), BakeError> {
+    let samples = checked(path, samples)?;
+    Ok((samples.width, samples.height, Format::Whole(samples)))
+}
+
+/// The error for a file whose format this build of hikage-bake does not read.
+#[allow(dead_code, reason = "used only by the builds that leave a format out")]
+fn not_built(path: &Path, format: &str, feature: &str) -> BakeError {
+    BakeError::input(
+        path,
+        Some("byte 0".into()),
+        format!("a {format} file, but this build of hikage-bake reads no {format}: enable its `{feature}` feature"),
+    )
+}
+
+#[cfg(feature = "tiff")]
+fn open_tiff(path: &Path, options: &LoadOptions) -> Result<(u32, u32, Format), BakeError> {
+    let file = tiff::open(path, options)?;
+    Ok((file.width, file.height, Format::Tiff(Box::new(file))))
+}
+
+#[cfg(not(feature = "tiff"))]
+fn open_tiff(path: &Path, _: &LoadOptions) -> Result<(u32, u32, Format), BakeError> {
+    Err(not_built(path, "TIFF", "tiff"))
+}
+
+#[cfg(feature = "png")]
+fn load_png(path: &Path, options: &LoadOptions) -> Result<Samples, BakeError> {
+    super::png::load(path, options)
+}
+
+#[cfg(not(feature = "png"))]
+fn load_png(path: &Path, _: &LoadOptions) -> Result<Samples, BakeError> {
+    Err(not_built(path, "PNG", "png"))
+}
+
+#[cfg(feature = "exr")]
+fn load_exr(path: &Path, options: &LoadOptions) -> Result<Samples, BakeError> {
+    super::exr::load(path, options)
+}
+
+#[cfg(not(feature = "exr"))]
+fn load_exr(path: &Path, _: &LoadOptions) -> Result<Samples, BakeError> {
+    Err(not_built(path, "OpenEXR", "exr"))
 }
 
 /// The first eight bytes of `path` and how many there were.

@@ -115,9 +115,12 @@ pub enum Unit<'a> {
 }
 
 impl JobContext<'_> {
-    /// A setting error of job `job`, naming where the job was written.
+    /// A setting error of job `job`, naming where the job was written (at the field the
+    /// message names first, when the source has it).
     pub fn setting(&self, job: &str, message: impl Into<String>) -> BakeError {
-        BakeError::Setting { path: self.source.to_path_buf(), job: job.to_string(), message: message.into() }
+        let message = message.into();
+        let place = self.place.and_then(|f| f.place_of(&message));
+        BakeError::Setting { path: self.source.to_path_buf(), place, job: job.to_string(), message }
     }
 }
 
@@ -153,6 +156,8 @@ pub struct JobContext<'a> {
     /// Where the job was written: the pipeline file, or `<command line>` for a one-shot
     /// command; setting errors name it.
     pub source: &'a Path,
+    /// Where the job is written in the source, when known.
+    pub place: Option<&'a crate::pipeline::Fields>,
     /// Directory that input paths are relative to.
     pub base_dir: &'a Path,
     /// Limits applied to inputs before they are decoded.

@@ -13,9 +13,13 @@
 //! Unknown fields are errors (a typo must not silently fall back to a default). Paths are
 //! relative to the directory holding the pipeline file.
 
+mod spans;
+
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
+
+pub use spans::{Fields, Place, Spans};
 
 use crate::error::BakeError;
 use crate::jobs::{Job, JobContext};
@@ -47,6 +51,8 @@ pub struct LoadedPipeline {
     pub base_dir: PathBuf,
     /// The parsed content.
     pub pipeline: Pipeline,
+    /// Where each job and setting is in the file (empty for a one-shot).
+    pub spans: Spans,
 }
 
 impl LoadedPipeline {
@@ -72,26 +78,40 @@ impl LoadedPipeline {
                 cache: None,
                 jobs: vec![job],
             },
+            spans: Spans::default(),
         }
     }
 
-    /// What a job of this pipeline runs with.
-    pub fn context<'a>(&'a self, progress: &'a (dyn Fn(u64, u64) + Sync)) -> JobContext<'a> {
-        JobContext { source: &self.path, base_dir: &self.base_dir, limits: &self.pipeline.limits, progress }
+    /// What job `index` of this pipeline runs with.
+    pub fn context<'a>(&'a self, index: usize, progress: &'a (dyn Fn(u64, u64) + Sync)) -> JobContext<'a> {
+        JobContext {
+            source: &self.path,
+            place: self.spans.jobs.get(index),
+            base_dir: &self.base_dir,
+            limits: &self.pipeline.limits,
+            progress,
+        }
     }
 
-    /// A setting error of job `job`, naming this pipeline's file.
-    pub(crate) fn setting(&self, job: &str, message: String) -> BakeError {
-        BakeError::Setting { path: self.path.clone(), job: job.to_string(), message }
+    /// A setting error of job `index` (id `job`), at the field `message` names first, else at
+    /// the job.
+    pub(crate) fn setting(&self, index: usize, job: &str, message: String) -> BakeError {
+        let place = self.spans.jobs.get(index).and_then(|f| f.place_of(&message));
+        BakeError::Setting { path: self.path.clone(), place, job: job.to_string(), message }
     }
 
-    /// An error the bundle writer gave for what job `job` baked: data it refuses to commit is
-    /// the job's (named with it), anything else passes through.
-    pub(crate) fn baked_error(&self, job: &str, e: hikage_bundle::BundleError) -> BakeError {
+    /// An error the bundle writer gave for what job `index` (id `job`) baked: data it refuses
+    /// to commit is the job's (named with it), anything else passes through.
+    pub(crate) fn baked_error(&self, index: usize, job: &str, e: hikage_bundle::BundleError) -> BakeError {
         match e {
-            hikage_bundle::BundleError::InvalidData(message) => self.setting(job, message),
+            hikage_bundle::BundleError::InvalidData(message) => self.setting(index, job, message),
             e => BakeError::Bundle(e),
         }
+    }
+
+    /// Checks settings ([`Pipeline::check`]), each error at its place in the file.
+    pub fn check(&self) -> Result<(), BakeError> {
+        self.pipeline.check_at(&self.path, &self.spans)
     }
 }
 
@@ -114,8 +134,8 @@ impl Pipeline {
         })?;
         let pipeline = Pipeline::parse(text, path)?;
         let base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        let loaded = LoadedPipeline { path: path.to_path_buf(), base_dir, pipeline };
-        loaded.pipeline.check(path)?;
+        let loaded = LoadedPipeline { path: path.to_path_buf(), base_dir, pipeline, spans: spans::scan(text) };
+        loaded.check()?;
         Ok(loaded)
     }
 
@@ -135,34 +155,40 @@ impl Pipeline {
 
     /// Checks settings: each job's ranges, and that no two jobs make the same asset id.
     pub fn check(&self, path: &Path) -> Result<(), BakeError> {
+        self.check_at(path, &Spans::default())
+    }
+
+    /// [`check`](Self::check), each error placed by `spans`.
+    fn check_at(&self, path: &Path, spans: &Spans) -> Result<(), BakeError> {
+        let setting = |fields: Option<&Fields>, job: &str, message: String| BakeError::Setting {
+            path: path.to_path_buf(),
+            place: fields.and_then(|f| f.place_of(&message)),
+            job: job.to_string(),
+            message,
+        };
+        if !(1..=InputLimits::MAX_DIMENSION).contains(&self.limits.max_dimension) {
+            let message = format!(
+                "max_dimension must be 1 to {} (the largest side a reader can hold), found {}",
+                InputLimits::MAX_DIMENSION,
+                self.limits.max_dimension
+            );
+            return Err(setting(Some(&spans.limits), "limits", message));
+        }
         let mut seen = std::collections::BTreeMap::new();
-        for job in &self.jobs {
+        for (index, job) in self.jobs.iter().enumerate() {
             let job = job.baker();
-            crate::jobs::check(job).map_err(|message| BakeError::Setting {
-                path: path.to_path_buf(),
-                job: job.id().to_string(),
-                message,
-            })?;
+            let fields = spans.jobs.get(index);
+            crate::jobs::check(job).map_err(|message| setting(fields, job.id(), message))?;
             for out in job.outputs() {
                 if let Some(other) = seen.insert(out.clone(), job.id().to_string()) {
                     return Err(BakeError::Setting {
                         path: path.to_path_buf(),
+                        place: fields.and_then(|f| f.place("id")),
                         job: job.id().to_string(),
                         message: format!("asset id `{out}` is also made by job `{other}`"),
                     });
                 }
             }
-        }
-        if !(1..=crate::limits::MAX_DIMENSION).contains(&self.limits.max_dimension) {
-            return Err(BakeError::Setting {
-                path: path.to_path_buf(),
-                job: "limits".into(),
-                message: format!(
-                    "max_dimension must be 1 to {} (the largest side a reader can hold), found {}",
-                    crate::limits::MAX_DIMENSION,
-                    self.limits.max_dimension
-                ),
-            });
         }
         Ok(())
     }
