@@ -346,11 +346,17 @@ impl BundleWriter {
         // again: the bundle stays as it was.
         let named_now: BTreeSet<String> =
             current.iter().flat_map(|m| m.assets.iter()).map(|a| a.file.clone()).collect();
+        let new_files: BTreeSet<String> = new.assets.iter().map(|a| a.file.clone()).collect();
         let recorded = read_retired(&self.dir);
         let mut retired = recorded.clone();
-        let placing: BTreeSet<String> = self.staged.keys().filter(|f| !named_now.contains(*f)).cloned().collect();
-        if !placing.is_subset(&retired) {
-            retired.extend(placing);
+        // Recorded before anything moves: what this commit places, and what the manifest it
+        // replaces names and the new one does not — so a commit killed after its rename leaves
+        // nothing no record names.
+        let placing = self.staged.keys().filter(|f| !named_now.contains(*f));
+        let retiring = named_now.difference(&new_files);
+        let pending: BTreeSet<String> = placing.chain(retiring).cloned().collect();
+        if !pending.is_subset(&retired) {
+            retired.extend(pending);
             write_retired(&self.dir, &self.tag, &retired)?;
         }
         // The readers' lock exists before the manifest it guards, so every reader of it can lock;
@@ -388,7 +394,6 @@ impl BundleWriter {
         // 4. Retired payloads: the replaced manifest's at once when no reader can hold them,
         // else one commit later; and what killed writers left. The commit has happened: a file
         // that cannot be removed now stays recorded for the next one.
-        let new_files: BTreeSet<String> = new.assets.iter().map(|a| a.file.clone()).collect();
         drop(self.reading.take());
         let readers = crate::files::open_regular(&readers_path).ok();
         let no_reader = !readers_lock_created && readers.as_ref().is_some_and(|f| f.try_lock().is_ok());

@@ -1,0 +1,180 @@
+//! One tile of a tiled `Horizon` job: a part of its own, baked from a window of the input.
+//!
+//! A job with `tile: Some(size)` is split into square tiles, one every `size` texels, numbered
+//! by column and row in the grid of tiles. Each holds `size + 1` texels a side (fewer at the
+//! map's right and bottom edges): its last column and row are the next tile's first, so meshes
+//! drawn through texel centres meet without a crack. Each tile reads
+//! its window of the input (the tile and a halo of `max_distance`) and writes the tile's
+//! heights, horizon texture and, with `ao`, occlusion, each with a [`TilePlacement`]. Its
+//! texels are those the whole-map bake has there (`horizon::bake_tile`).
+//!
+//! A tile's input hash covers the job's settings, the tile's index and the input file's
+//! BLAKE3, taken once for all tiles when the job is split: hashing the whole input again per
+//! tile would cost more than many tiles' bakes.
+
+use std::path::{Path, PathBuf};
+
+use hikage_bundle::TilePlacement;
+
+use super::HorizonJob;
+use crate::error::BakeError;
+use crate::heightfield::Heightfield;
+use crate::horizon::{self, TileWindow};
+use crate::jobs::{BakedAsset, Baker, JobContext};
+
+/// One tile of a tiled horizon job.
+#[derive(Clone, Debug)]
+pub struct HorizonTileJob {
+    /// `<job id>.<tx>_<ty>`.
+    id: String,
+    job: HorizonJob,
+    /// Column and row in the grid of tiles.
+    index: (u32, u32),
+    place: TileWindow,
+    /// BLAKE3 of the input file, which the tile's input hash stands on.
+    input_digest: String,
+    /// The value the input's voids take (its lowest valid sample), found once for all tiles.
+    void_fill: Option<f32>,
+}
+
+/// Splits `job` into its tiles of `size` texels, reading the input's header, hashing it once,
+/// and finding the value of its voids.
+pub(super) fn tiles(job: &HorizonJob, size: u32, ctx: &JobContext) -> Result<Vec<Box<dyn Baker>>, BakeError> {
+    let limits = ctx.limits;
+    let path = job.source.path(ctx.base_dir);
+    let setting = |message: String| ctx.setting(&job.id, message);
+    let halo = horizon::halo(&job.params(), job.source.texel_size).map_err(setting)?;
+    let mut source = job.source.open(ctx)?;
+    let (w, h) = source.size();
+    let void_fill = source.void_fill()?;
+    let input_digest = crate::hash::file_digest(&path)?;
+    let mut parts: Vec<Box<dyn Baker>> = Vec::new();
+    // Tiles start every `size` texels and hold one more, the next tile's first column and row:
+    // a mesh through texel centres then meets its neighbour's without a crack.
+    let count = |n: u32| (n.saturating_sub(1)).div_ceil(size).max(1);
+    for ty in 0..count(h) {
+        for tx in 0..count(w) {
+            let (x, y) = (tx * size, ty * size);
+            let rect = (x, y, size.saturating_add(1).min(w - x), size.saturating_add(1).min(h - y));
+            let place = TileWindow::new((w, h), rect, halo, job.options.edge);
+            let (_, _, ww, wh) = place.window;
+            if ww.max(wh) > limits.max_dimension {
+                return Err(setting(format!(
+                    "a {}×{} tile with a halo of {halo:?} texels (max_distance {:?}) reads a {ww}×{wh} window of \
+                     heights, above the limit of {}: lower tile or max_distance",
+                    rect.2, rect.3, job.options.max_distance, limits.max_dimension
+                )));
+            }
+            parts.push(Box::new(HorizonTileJob {
+                id: format!("{}.{tx}_{ty}", job.id),
+                job: job.clone(),
+                index: (tx, ty),
+                place,
+                input_digest: input_digest.clone(),
+                void_fill,
+            }));
+        }
+    }
+    Ok(parts)
+}
+
+impl HorizonTileJob {
+    fn suffix(&self) -> String {
+        format!("{}_{}", self.index.0, self.index.1)
+    }
+
+    fn placement(&self) -> TilePlacement {
+        TilePlacement {
+            map: self.job.id.clone(),
+            index: self.index,
+            origin: (self.place.tile.0, self.place.tile.1),
+            map_size: self.place.map,
+        }
+    }
+
+    /// The tile's texels of the window's heights.
+    fn tile_heights(&self, window: &Heightfield) -> Heightfield {
+        let (tx, ty, tw, th) = self.place.tile;
+        let (x0, y0) = ((tx as i64 - self.place.window.0) as usize, (ty as i64 - self.place.window.1) as usize);
+        let ww = window.width as usize;
+        let samples = (0..th as usize)
+            .flat_map(|r| window.samples[(y0 + r) * ww + x0..][..tw as usize].iter().copied())
+            .collect();
+        Heightfield { width: tw, height: th, samples, ..window.clone() }
+    }
+}
+
+impl Baker for HorizonTileJob {
+    fn id(&self) -> &str {
+        &self.id
+    }
+
+    fn kind(&self) -> &'static str {
+        "horizon"
+    }
+
+    fn algorithm_version(&self) -> u32 {
+        self.job.algorithm_version()
+    }
+
+    /// None: the input file is hashed once for every tile, its BLAKE3 part of the settings.
+    fn inputs(&self, _base_dir: &Path) -> Vec<PathBuf> {
+        Vec::new()
+    }
+
+    fn outputs(&self) -> Vec<String> {
+        self.job.outputs().into_iter().map(|id| format!("{id}.{}", self.suffix())).collect()
+    }
+
+    fn canonical_settings(&self) -> String {
+        format!(
+            "{};tile_index=({},{});input_blake3={}",
+            self.job.canonical_settings(),
+            self.index.0,
+            self.index.1,
+            self.input_digest
+        )
+    }
+
+    fn check(&self) -> Result<(), String> {
+        self.job.check()
+    }
+
+    fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
+        self.job.check_inputs(ctx)
+    }
+
+    fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
+        let path = self.job.source.path(ctx.base_dir);
+        let mut source = self.job.source.open(ctx)?;
+        if source.size() != self.place.map {
+            let (w, h) = self.place.map;
+            let (fw, fh) = source.size();
+            return Err(BakeError::input(
+                &path,
+                None,
+                format!("expected the {w}×{h} map the job was split for, found {fw}×{fh}"),
+            ));
+        }
+        let (wx, wy, ww, wh) = self.place.window;
+        let samples = source.read_window((wx, wy), (ww, wh), self.void_fill)?;
+        // The checks a whole-map load makes, on the samples this tile reads.
+        let heights = &self.job.source;
+        heights.check_samples(&path, &samples, ((wx, wy), ww, self.place.map), &self.job.sample_check())?;
+        let (normalized, source_channel) = source.channel();
+        let window = Heightfield {
+            width: ww,
+            height: wh,
+            samples,
+            texel_size: heights.texel_size,
+            height_scale: heights.height_scale,
+            height_offset: heights.height_offset,
+            normalized,
+            source_channel,
+        };
+        let params = self.job.params();
+        let baked =
+            horizon::bake_tile(&window, &self.place, &params, ctx.progress).map_err(|m| ctx.setting(&self.id, m))?;
+        self.job.assets(&self.tile_heights(&window), baked, Some(&self.placement()))
+    }
+}
