@@ -244,11 +244,11 @@ fn run(cli: Cli) -> Result<(), Failure> {
             (None, None) => unreachable!("clap requires --out or --gltf"),
         },
         Command::Horizon { mut job, target } => {
-            job.id = target.id_for(&job.input);
+            job.id = target.id_for(&job.source.input);
             one_shot(Job::Horizon(job), &target)
         }
         Command::Relief { mut job, target } => {
-            job.id = target.id_for(&job.input);
+            job.id = target.id_for(&job.source.input);
             one_shot(Job::Relief(job), &target)
         }
         Command::Strands { mut job, target } => {

@@ -1,29 +1,35 @@
 //! Input hashes: what decides whether a job must be baked again.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::error::BakeError;
-use crate::jobs::Baker;
-use crate::limits::InputLimits;
+
+/// What a job's input hash is made of: its kind and algorithm version, its canonical settings
+/// (the input limits among them) and its input files.
+pub(crate) struct HashedJob<'a> {
+    pub kind: &'a str,
+    pub algorithm_version: u32,
+    pub settings: String,
+    pub inputs: Vec<PathBuf>,
+}
 
 /// The input hash of a job: a domain tag, the kind, its algorithm version, the canonical
-/// settings with the input limits (so a tightened limit re-checks inputs baked before it), then
-/// each input file's length and bytes. Paths are not hashed: moving an input does not force a
-/// re-bake, changing a byte does.
-pub(crate) fn job_hash(job: &dyn Baker, base_dir: &Path, limits: &InputLimits) -> Result<String, BakeError> {
-    let settings = format!("{};max_dimension={}", job.canonical_settings(), limits.max_dimension);
+/// settings, then each input file's length and bytes. Paths are not hashed: moving an input
+/// does not force a re-bake, changing a byte does.
+pub(crate) fn job_hash(job: &HashedJob) -> Result<String, BakeError> {
+    let settings = &job.settings;
     let mut h = blake3::Hasher::new();
     h.update(b"hikage input hash v1\0");
-    h.update(job.kind().as_bytes());
+    h.update(job.kind.as_bytes());
     h.update(&[0]);
-    h.update(&job.algorithm_version().to_le_bytes());
+    h.update(&job.algorithm_version.to_le_bytes());
     h.update(&(settings.len() as u64).to_le_bytes());
     h.update(settings.as_bytes());
-    for path in job.inputs(base_dir) {
+    for path in &job.inputs {
         // Before anything is read: a FIFO or /dev/zero as an input would never end.
-        let len = hikage_bundle::files::regular_metadata(&path).map_err(|e| BakeError::io(&path, e))?.len();
+        let len = hikage_bundle::files::regular_metadata(path).map_err(|e| BakeError::io(path, e))?.len();
         h.update(&len.to_le_bytes());
-        stream(&path, len, &mut h)?;
+        stream(path, len, &mut h)?;
     }
     Ok(h.finalize().to_hex().to_string())
 }

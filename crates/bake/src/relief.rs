@@ -160,14 +160,19 @@ pub struct BakedRelief {
     pub thickness: f32,
 }
 
+/// A relief height must lie in `[0, 1]` (depth = 1 − height).
+pub fn check_height(v: f32) -> Result<(), String> {
+    if (0.0..=1.0).contains(&v) {
+        Ok(())
+    } else {
+        Err(format!("relief heights must lie in [0, 1] (depth = 1 − height); the sample is {v}"))
+    }
+}
+
 /// Heights as the max-mip asset stores them (half floats), checked to lie in `[0, 1]`.
 pub fn stored_heights(hf: &Heightfield) -> Result<Vec<f32>, String> {
-    if let Some((i, v)) = hf.samples.iter().enumerate().find(|(_, v)| !(0.0..=1.0).contains(*v)) {
-        return Err(format!(
-            "relief heights must lie in [0, 1] (depth = 1 − height); sample ({}, {}) is {v}",
-            i % hf.width as usize,
-            i / hf.width as usize
-        ));
+    if let Some((i, m)) = hf.samples.iter().enumerate().find_map(|(i, &v)| check_height(v).err().map(|m| (i, m))) {
+        return Err(format!("sample ({}, {}): {m}", i % hf.width as usize, i / hf.width as usize));
     }
     Ok(hf.samples.iter().map(|&v| half::f16::from_f32(v).to_f32()).collect())
 }

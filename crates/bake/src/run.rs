@@ -12,7 +12,9 @@ use hikage_bundle::{Asset, BundleWriter, WriteMode};
 
 use crate::cache::{self, Cache};
 use crate::error::BakeError;
-use crate::jobs::{self, BakedPayload, Baker, Job, Unit};
+use hikage_bundle::PayloadData;
+
+use crate::jobs::{self, Baker, Job, Unit};
 use crate::pipeline::{LoadedPipeline, Pipeline};
 use crate::shard::{Shard, ShardRecord};
 
@@ -225,7 +227,13 @@ fn run_job(
     let job = run.job;
     let id = job.id().to_string();
     options.observer.job_started(run.position.0, run.position.1, &id, job.kind());
-    let hash = crate::hash::job_hash(job, &loaded.base_dir, &loaded.pipeline.limits)?;
+    // The input limits are part of the settings: a tightened limit re-checks inputs baked before.
+    let hash = crate::hash::job_hash(&crate::hash::HashedJob {
+        kind: job.kind(),
+        algorithm_version: job.algorithm_version(),
+        settings: format!("{};max_dimension={}", job.canonical_settings(), loaded.pipeline.limits.max_dimension),
+        inputs: job.inputs(&loaded.base_dir),
+    })?;
     let outputs = job.outputs();
     let reusable: Option<Vec<_>> =
         if options.force { None } else { outputs.iter().map(|o| writer.reusable(o, &hash)).collect() };
@@ -251,8 +259,8 @@ fn run_job(
     for asset in job.bake(&ctx)? {
         made.push(
             match &asset.payload {
-                BakedPayload::Texture(t) => writer.put_texture(&asset.id, asset.settings, &hash, t),
-                BakedPayload::Mesh(m) => writer.put_mesh(&asset.id, asset.settings, &hash, m),
+                PayloadData::Texture(t) => writer.put_texture(&asset.id, asset.settings, &hash, t),
+                PayloadData::Mesh(m) => writer.put_mesh(&asset.id, asset.settings, &hash, m),
             }
             .map_err(|e| loaded.baked_error(run.index, &id, e))?,
         );

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use hikage_bake::heightfield::{HeightSource, LoadOptions, load_samples};
+use hikage_bake::heightfield::{HeightFile, LoadOptions, load_samples};
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("hikage_windows_{}_{name}", std::process::id()));
@@ -21,7 +21,7 @@ fn repo(path: &str) -> PathBuf {
 fn windows_match_the_whole_file(path: &Path, options: &LoadOptions) -> usize {
     let whole = load_samples(path, options).unwrap();
     let (w, h) = (whole.width as i64, whole.height as i64);
-    let mut source = HeightSource::open(path, options).unwrap();
+    let mut source = HeightFile::open(path, options).unwrap();
     assert_eq!(source.size(), (whole.width, whole.height), "{}", path.display());
     assert_eq!(source.channel(), (whole.normalized, whole.channel.clone()), "{}", path.display());
     let fill = source.void_fill().unwrap();
@@ -102,7 +102,7 @@ fn a_window_of_a_non_finite_sample_is_refused_by_place() {
     values[6] = f32::NAN;
     let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
     std::fs::write(dir.join("nan.r32"), bytes).unwrap();
-    let mut source = HeightSource::open(&dir.join("nan.r32"), &LoadOptions::default()).unwrap();
+    let mut source = HeightFile::open(&dir.join("nan.r32"), &LoadOptions::default()).unwrap();
     assert!(source.read_window((0, 0), (2, 2), None).is_ok());
     let e = source.read_window((1, 0), (2, 2), None).unwrap_err().to_string();
     assert!(e.contains("nan.r32") && e.contains("pixel (2, 1)"), "{e}");

@@ -50,6 +50,45 @@ pub use manifest::{
 pub use mesh::{Accessor, ComponentType, MeshData, MeshDesc};
 pub use names::{check_asset_id, is_valid_asset_id, payload_file_name};
 pub use texture::{Supercompression, TextureData, TextureDesc, TextureDimension, TextureFormat};
+
+/// A payload's data in memory: what a baker hands the writer and a reader gets back.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PayloadData {
+    /// Uncompressed texture levels.
+    Texture(TextureData),
+    /// A mesh buffer with its accessors.
+    Mesh(MeshData),
+}
+
+impl PayloadData {
+    /// The texture, when the payload is one.
+    pub fn texture(&self) -> Option<&TextureData> {
+        match self {
+            PayloadData::Texture(t) => Some(t),
+            PayloadData::Mesh(_) => None,
+        }
+    }
+
+    /// The mesh, when the payload is one.
+    pub fn mesh(&self) -> Option<&MeshData> {
+        match self {
+            PayloadData::Mesh(m) => Some(m),
+            PayloadData::Texture(_) => None,
+        }
+    }
+}
+
+impl From<TextureData> for PayloadData {
+    fn from(t: TextureData) -> Self {
+        PayloadData::Texture(t)
+    }
+}
+
+impl From<MeshData> for PayloadData {
+    fn from(m: MeshData) -> Self {
+        PayloadData::Mesh(m)
+    }
+}
 pub use validate::{Problem, Report, check_payload, validate};
 pub use version::FormatVersion;
 pub use writer::{BundleWriter, CommitSummary, LOCK_FILE, OWNER_FILE, WriteMode};

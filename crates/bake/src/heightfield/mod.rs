@@ -13,13 +13,13 @@
 
 #[cfg(feature = "exr")]
 mod exr;
+mod file;
 mod hgt;
 #[cfg(feature = "png")]
 mod png;
 mod raw;
 #[cfg(feature = "tiff")]
 mod tiff;
-mod window;
 
 use std::path::Path;
 
@@ -27,7 +27,7 @@ use hikage_bundle::{Supercompression, TextureData, TextureDesc, TextureDimension
 
 use crate::error::BakeError;
 
-pub use window::HeightSource;
+pub use file::HeightFile;
 
 /// Options for loading a heightfield image.
 #[derive(Clone, Debug, PartialEq)]
@@ -128,11 +128,11 @@ pub struct Samples {
     pub channel: String,
 }
 
-/// Loads the whole map from any supported file (see [`HeightSource::open`] for how the format
+/// Loads the whole map from any supported file (see [`HeightFile::open`] for how the format
 /// is chosen): a read of the window that is the whole map, voids filled, every sample checked
 /// to be finite.
 pub fn load_samples(path: &Path, options: &LoadOptions) -> Result<Samples, BakeError> {
-    HeightSource::open(path, options)?.read_all()
+    HeightFile::open(path, options)?.read_all()
 }
 
 /// `samples` when they are exactly `width × height` and all finite; otherwise an error naming

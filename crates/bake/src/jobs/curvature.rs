@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use hikage_bundle::{CurvatureSettings, MeshData, Settings};
 use serde::{Deserialize, Serialize};
 
-use super::{BakedAsset, BakedPayload, Baker, JobContext};
+use super::{BakedAsset, Baker, JobContext};
 use crate::curvature;
 use crate::error::BakeError;
 use crate::mesh;
@@ -94,7 +94,7 @@ impl Baker for CurvatureJob {
         Ok(vec![BakedAsset {
             id: self.id.clone(),
             settings: Settings::Curvature(CurvatureSettings { positions: mesh.positions.len() as u32, rings: 2 }),
-            payload: BakedPayload::Mesh(data),
+            payload: data.into(),
         }])
     }
 }

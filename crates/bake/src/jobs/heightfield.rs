@@ -3,11 +3,12 @@
 use std::path::{Path, PathBuf};
 
 use hikage_bundle::{HeightfieldSettings, Settings, TextureFormat};
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize};
 
-use super::{BakedAsset, BakedPayload, Baker, JobContext};
+use super::source::{HeightSource, deserialize_flat};
+use super::{BakedAsset, Baker, JobContext};
 use crate::error::BakeError;
-use crate::heightfield::{HeightSource, Heightfield, LoadOptions, load_samples};
+use crate::heightfield::Heightfield;
 
 /// Version of the import; part of the input hash.
 pub const ALGORITHM_VERSION: u32 = 1;
@@ -45,149 +46,52 @@ impl HeightFormat {
             HeightFormat::R16Float => TextureFormat::R16Float,
         }
     }
-}
 
-/// Settings of a heightfield import.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct HeightfieldJob {
-    /// Asset id.
-    pub id: String,
-    /// PNG (8/16-bit), OpenEXR, TIFF/GeoTIFF, SRTM `.hgt` or raw `.r16`/`.r32` file.
-    pub input: PathBuf,
-    /// Channel to take; see [`crate::heightfield`] for the rule when absent.
-    #[serde(default)]
-    pub channel: Option<String>,
-    /// World units per texel along `u` and `v`.
-    #[serde(default = "unit_texel")]
-    pub texel_size: (f32, f32),
-    /// World height = `height_offset + height_scale × sample`.
-    #[serde(default = "one")]
-    pub height_scale: f32,
-    /// See `height_scale`.
-    #[serde(default)]
-    pub height_offset: f32,
-    /// Storage format.
-    #[serde(default)]
-    pub format: HeightFormat,
-    /// Width and height of a raw `.r16`/`.r32` input (none: a square map's side from its length).
-    #[serde(default)]
-    pub raw_size: Option<(u32, u32)>,
-}
-
-/// Parses a raw heightmap's size written `WxH` (the command line's `--raw-size`).
-#[cfg(feature = "clap")]
-pub fn parse_raw_size(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or("expected WxH")?;
-    let num = |p: &str| p.trim().parse::<u32>().map_err(|e| format!("{p:?}: {e}"));
-    Ok((num(w)?, num(h)?))
-}
-
-/// Parses a texel size written `SX` or `SX,SY` (the command line's `--texel-size`).
-#[cfg(feature = "clap")]
-pub fn parse_texel_size(s: &str) -> Result<(f32, f32), String> {
-    let num = |p: &str| p.trim().parse::<f32>().map_err(|e| format!("{p:?}: {e}"));
-    match s.split(',').collect::<Vec<_>>().as_slice() {
-        [x] => num(x).map(|x| (x, x)),
-        [x, y] => Ok((num(x)?, num(y)?)),
-        _ => Err("expected SX or SX,SY".into()),
+    /// The `heightfield` asset `id` of the loaded `hf`, stored in this format.
+    pub(crate) fn asset(self, id: &str, hf: &Heightfield) -> Result<BakedAsset, BakeError> {
+        Ok(BakedAsset {
+            id: id.to_string(),
+            settings: Settings::Heightfield(settings_of(hf)),
+            payload: hf.to_texture(self.texture_format())?.into(),
+        })
     }
 }
 
-pub(crate) fn unit_texel() -> (f32, f32) {
-    (1.0, 1.0)
+/// A heightfield import: the source, stored as `format`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeightfieldJob {
+    /// Asset id.
+    pub id: String,
+    /// The input and its world units.
+    pub source: HeightSource,
+    /// The job's own settings.
+    pub options: HeightfieldOptions,
 }
 
-pub(crate) fn one() -> f32 {
-    1.0
+/// The `Heightfield` job's own settings (beside its [`HeightSource`]).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct HeightfieldOptions {
+    /// Storage format.
+    pub format: HeightFormat,
+}
+
+impl<'de> Deserialize<'de> for HeightfieldJob {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let (id, source, options) = deserialize_flat(d, "Heightfield")?;
+        Ok(HeightfieldJob { id, source, options })
+    }
 }
 
 impl HeightfieldJob {
     /// A job with every setting at its default.
     pub fn new(id: &str, input: PathBuf) -> HeightfieldJob {
-        HeightfieldJob {
-            id: id.to_string(),
-            input,
-            channel: None,
-            texel_size: unit_texel(),
-            height_scale: 1.0,
-            height_offset: 0.0,
-            format: HeightFormat::R32Float,
-            raw_size: None,
-        }
+        HeightfieldJob { id: id.to_string(), source: HeightSource::new(input), options: HeightfieldOptions::default() }
     }
 
-    /// How the input is read.
-    fn load_options(&self, ctx: &JobContext) -> LoadOptions {
-        LoadOptions { channel: self.channel.clone(), max_dimension: ctx.limits.max_dimension, raw_size: self.raw_size }
-    }
-
-    /// Checks every sample of the input as [`load`](Self::load) would, a block of the file at
-    /// a time: finite, storable in the job's format, a finite world height.
-    pub fn scan(&self, ctx: &JobContext) -> Result<(), BakeError> {
-        let path = ctx.base_dir.join(&self.input);
-        let mut source = HeightSource::open(&path, &self.load_options(ctx))?;
-        let (w, h) = source.size();
-        self.check_extent(&path, w, h)?;
-        source.scan(&|v| self.check_sample(v))
-    }
-
-    /// A sample's storage and world height.
-    pub(super) fn check_sample(&self, v: f32) -> Result<(), String> {
-        self.format.check(v)?;
-        let world = self.height_offset + self.height_scale * v;
-        if !world.is_finite() {
-            return Err(format!(
-                "sample {v} gives world height {world} (height_offset + height_scale × sample): expected a finite one"
-            ));
-        }
-        Ok(())
-    }
-
-    /// The map's world extent, which horizon distances are measured in, must be finite.
-    pub(super) fn check_extent(&self, path: &Path, w: u32, h: u32) -> Result<(), BakeError> {
-        let (sx, sy) = self.texel_size;
-        if !((w as f32 * sx).is_finite() && (h as f32 * sy).is_finite()) {
-            return Err(BakeError::input(
-                path,
-                None,
-                format!("a {w}×{h} map of texel_size ({sx}, {sy}) spans no finite world extent"),
-            ));
-        }
-        Ok(())
-    }
-
-    /// Loads the input with the job's world units attached, every sample checked as
-    /// [`scan`](Self::scan) checks it.
+    /// Loads the input with the job's world units attached, every sample checked.
     pub fn load(&self, ctx: &JobContext) -> Result<Heightfield, BakeError> {
-        let path = ctx.base_dir.join(&self.input);
-        let s = load_samples(&path, &self.load_options(ctx))?;
-        self.check_extent(&path, s.width, s.height)?;
-        if let Some((i, message)) =
-            s.values.iter().enumerate().find_map(|(i, &v)| self.check_sample(v).err().map(|m| (i, m)))
-        {
-            let (x, y) = (i % s.width as usize, i / s.width as usize);
-            return Err(BakeError::input(&path, Some(format!("pixel ({x}, {y})")), message));
-        }
-        Ok(Heightfield {
-            width: s.width,
-            height: s.height,
-            samples: s.values,
-            texel_size: self.texel_size,
-            height_scale: self.height_scale,
-            height_offset: self.height_offset,
-            normalized: s.normalized,
-            source_channel: s.channel,
-        })
-    }
-
-    /// The asset of a loaded heightfield, stored in `format`.
-    pub(crate) fn asset(&self, hf: &Heightfield) -> Result<BakedAsset, BakeError> {
-        Ok(BakedAsset {
-            id: self.id.clone(),
-            settings: Settings::Heightfield(settings_of(hf)),
-            payload: BakedPayload::Texture(hf.to_texture(self.format.texture_format())?),
-        })
+        self.source.load(ctx, &|v| self.options.format.check(v))
     }
 }
 
@@ -205,7 +109,7 @@ impl Baker for HeightfieldJob {
     }
 
     fn inputs(&self, base_dir: &Path) -> Vec<PathBuf> {
-        vec![base_dir.join(&self.input)]
+        vec![self.source.path(base_dir)]
     }
 
     fn outputs(&self) -> Vec<String> {
@@ -213,29 +117,34 @@ impl Baker for HeightfieldJob {
     }
 
     fn canonical_settings(&self) -> String {
-        // A raw size is appended only when given, so the inputs hashed before it keep their hash.
-        let raw = self.raw_size.map(|(w, h)| format!(";raw_size=({w},{h})")).unwrap_or_default();
-        format!(
-            "channel={:?};texel_size=({:?},{:?});height_scale={:?};height_offset={:?};format={:?}{raw}",
-            self.channel, self.texel_size.0, self.texel_size.1, self.height_scale, self.height_offset, self.format
-        )
+        canonical(&self.source, self.options.format)
     }
 
     fn check(&self) -> Result<(), String> {
-        check_world_units(self.texel_size, self.height_scale, self.height_offset)
+        self.source.check()
     }
 
     fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
-        self.scan(ctx)
+        self.source.scan(ctx, &|v| self.options.format.check(v)).map(|_| ())
     }
 
     fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
         (ctx.progress)(0, 1);
-        let hf = self.load(ctx)?;
-        let asset = self.asset(&hf)?;
+        let asset = self.options.format.asset(&self.id, &self.load(ctx)?)?;
         (ctx.progress)(1, 1);
         Ok(vec![asset])
     }
+}
+
+/// The canonical settings of heights read from `source` and stored as `format` (part of every
+/// heightfield-reading job's input hash). A raw size is appended only when given, so the inputs
+/// hashed before it keep their hash.
+pub(crate) fn canonical(source: &HeightSource, format: HeightFormat) -> String {
+    let raw = source.raw_size.map(|(w, h)| format!(";raw_size=({w},{h})")).unwrap_or_default();
+    format!(
+        "channel={:?};texel_size=({:?},{:?});height_scale={:?};height_offset={:?};format={:?}{raw}",
+        source.channel, source.texel_size.0, source.texel_size.1, source.height_scale, source.height_offset, format
+    )
 }
 
 /// The manifest settings describing a heightfield's world units.
@@ -248,16 +157,4 @@ pub fn settings_of(hf: &Heightfield) -> HeightfieldSettings {
         normalized: hf.normalized,
         tile: None,
     }
-}
-
-/// Checks texel size, height scale and offset (see [`crate::heightfield`] on world units).
-pub fn check_world_units(texel_size: (f32, f32), height_scale: f32, height_offset: f32) -> Result<(), String> {
-    let (sx, sy) = texel_size;
-    if !(sx.is_finite() && sy.is_finite() && sx > 0.0 && sy > 0.0) {
-        return Err(format!("texel_size must be finite and above 0, found ({sx}, {sy})"));
-    }
-    if !height_scale.is_finite() || !height_offset.is_finite() {
-        return Err(format!("height_scale and height_offset must be finite, found {height_scale} and {height_offset}"));
-    }
-    Ok(())
 }

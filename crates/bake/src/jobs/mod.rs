@@ -1,7 +1,8 @@
 //! The job kinds a pipeline can name, and the one interface the runner bakes them through.
 //!
 //! Every kind is a settings struct (the fields `pipeline.ron` writes inside `Horizon(…)`) that
-//! implements [`Baker`]. [`Job`] is only the registry `pipeline.ron` needs: serde picks the
+//! implements [`Baker`]. A kind that reads a heightfield owns a [`HeightSource`] (the input and
+//! its world units, declared once in [`source`]) beside its own settings. [`Job`] is only the registry `pipeline.ron` needs: serde picks the
 //! variant by name and [`Job::baker`] hands out the trait object. The runner, the hashing,
 //! `validate PIPELINE` and the CLI never match on the kind, and the bundle derives an asset's
 //! kind from its settings.
@@ -13,27 +14,28 @@
 pub mod curvature;
 pub mod heightfield;
 pub mod horizon;
-pub mod horizon_tile;
 pub mod relief;
+pub mod source;
 pub mod strands;
 
 use std::path::{Path, PathBuf};
 
-use hikage_bundle::{MeshData, Settings, TextureData};
-use serde::{Deserialize, Serialize};
+use hikage_bundle::{PayloadData, Settings};
+use serde::Deserialize;
 
 use crate::error::BakeError;
 use crate::limits::InputLimits;
 
 pub use curvature::CurvatureJob;
-pub use heightfield::{HeightFormat, HeightfieldJob};
-pub use horizon::HorizonJob;
-pub use relief::{ReliefJob, ReliefPreset};
+pub use heightfield::{HeightFormat, HeightfieldJob, HeightfieldOptions};
+pub use horizon::{HorizonJob, HorizonOptions};
+pub use relief::{ReliefJob, ReliefOptions, ReliefPreset};
+pub use source::HeightSource;
 pub use strands::StrandsJob;
 
 /// One job of a pipeline. The variant names the baker; [`Job::baker`] is the only place that
 /// lists them.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize)]
 pub enum Job {
     /// Import a heightfield image as a `heightfield` asset.
     Heightfield(HeightfieldJob),
@@ -166,15 +168,6 @@ pub struct JobContext<'a> {
     pub progress: &'a (dyn Fn(u64, u64) + Sync),
 }
 
-/// A payload produced by a job.
-#[derive(Clone, Debug, PartialEq)]
-pub enum BakedPayload {
-    /// A texture.
-    Texture(TextureData),
-    /// A mesh.
-    Mesh(MeshData),
-}
-
 /// One asset produced by a job, ready to be written. Its kind follows from its settings
 /// ([`Settings::kind`]).
 #[derive(Clone, Debug, PartialEq)]
@@ -184,7 +177,7 @@ pub struct BakedAsset {
     /// The settings recorded in the manifest.
     pub settings: Settings,
     /// The payload.
-    pub payload: BakedPayload,
+    pub payload: PayloadData,
 }
 
 #[cfg(test)]
@@ -192,21 +185,32 @@ mod tests {
     use super::*;
 
     /// The kind name hashed with a job is the variant name `pipeline.ron` writes, so the two
-    /// can never drift apart.
+    /// can never drift apart; and a heightfield-reading job's source fields read flat, with its
+    /// own settings' defaults where left out and a typo refused at its place.
     #[test]
-    fn each_kind_name_is_its_pipeline_variant_in_lower_case() {
-        let input = PathBuf::from("x.png");
-        let jobs = [
-            Job::Heightfield(HeightfieldJob::new("a", input.clone())),
-            Job::Horizon(HorizonJob::new("a", input.clone())),
-            Job::Curvature(CurvatureJob { id: "a".into(), input: input.clone() }),
-            Job::Relief(ReliefJob::new("a", input.clone())),
-            Job::Strands(StrandsJob::new("a", input)),
-        ];
-        for job in jobs {
-            let text = ron::to_string(&job).unwrap();
-            let variant = text.split('(').next().unwrap();
-            assert_eq!(job.baker().kind(), variant.to_lowercase(), "{text}");
+    fn each_kind_reads_under_its_name_with_its_source_flat() {
+        let path = std::path::Path::new("p.ron");
+        for variant in ["Heightfield", "Horizon", "Curvature", "Relief", "Strands"] {
+            let text = format!("(output: \"b\", jobs: [{variant}(id: \"a\", input: \"x.png\")])");
+            let pipeline = crate::Pipeline::parse(&text, path).unwrap();
+            assert_eq!(pipeline.jobs[0].baker().kind(), variant.to_lowercase(), "{text}");
         }
+        let text = "(output: \"b\", jobs: [Horizon(id: \"t\", directions: 8, input: \"t.r16\", \
+                    texel_size: (2, 3), raw_size: (4, 2), ao: true)])";
+        let Job::Horizon(job) = &crate::Pipeline::parse(text, path).unwrap().jobs[0] else { panic!("a horizon job") };
+        assert_eq!(job.source.input, PathBuf::from("t.r16"));
+        assert_eq!((job.source.texel_size, job.source.raw_size), ((2.0, 3.0), Some((4, 2))));
+        assert_eq!((job.options.directions, job.options.ao), (8, true));
+        assert_eq!(job.options.near_field, HorizonOptions::default().near_field);
+        let typo = "(output: \"b\", jobs: [\n  Horizon(id: \"t\", input: \"t.png\",\n  direction: 8)])";
+        match crate::Pipeline::parse(typo, path).unwrap_err() {
+            BakeError::Pipeline { line, message, .. } => {
+                assert!(line == 3 && message.contains("direction"), "{message}")
+            }
+            e => panic!("{e}"),
+        }
+        let missing = "(output: \"b\", jobs: [Relief(id: \"r\", theta: 4)])";
+        let e = crate::Pipeline::parse(missing, path).unwrap_err().to_string();
+        assert!(e.contains("input"), "{e}");
     }
 }

@@ -4,61 +4,83 @@
 use std::path::{Path, PathBuf};
 
 use hikage_bundle::{MaxMipSettings, ReliefSettings, Settings};
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize};
 
-use super::heightfield::HeightfieldJob;
-use super::{BakedAsset, BakedPayload, Baker, JobContext};
+use super::source::{HeightSource, deserialize_flat};
+use super::{BakedAsset, Baker, JobContext};
 use crate::error::BakeError;
-use crate::heightfield::{HeightSource, LoadOptions};
 use crate::relief::{self, ReliefFormat, ReliefParams};
 
 /// Version of the relief job; part of the input hash.
 pub const ALGORITHM_VERSION: u32 = relief::ALGORITHM_VERSION;
 
-/// Settings of a relief bake. Asset ids: `<id>.relief` (depth maps) and `<id>.maxmip`.
+/// A relief bake. Asset ids: `<id>.relief` (depth maps) and `<id>.maxmip`. Relief heights are
+/// the source's `height_offset + height_scale × sample`, which must lie in [0, 1] (depth =
+/// 1 − height): a raw `.r16` reads with `height_scale: 1.5259e-5` (1/65535).
 ///
 /// With the `clap` feature it is also the `hikage relief` command line (the id comes from
 /// `--id` or the input's file stem).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "clap", derive(clap::Args))]
-#[serde(deny_unknown_fields)]
 pub struct ReliefJob {
     /// Prefix of the asset ids.
     #[cfg_attr(feature = "clap", arg(skip))]
     pub id: String,
-    /// Heightfield image (PNG 8/16-bit or OpenEXR) with samples in [0, 1] and power-of-two sides.
-    pub input: PathBuf,
-    /// Channel of the input to take: R, G, B, A, Y or an EXR channel name (default: a grayscale
-    /// PNG's luma; an EXR's Y, else R, else its only channel).
-    #[serde(default)]
-    #[cfg_attr(feature = "clap", arg(long))]
-    pub channel: Option<String>,
+    /// The input and its heights.
+    #[cfg_attr(feature = "clap", command(flatten))]
+    pub source: HeightSource,
+    /// The job's own settings.
+    #[cfg_attr(feature = "clap", command(flatten))]
+    pub options: ReliefOptions,
+}
+
+/// The `Relief` job's own settings (beside its [`HeightSource`]); every default is
+/// [`ReliefOptions::default`]'s.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
+#[serde(default, deny_unknown_fields)]
+pub struct ReliefOptions {
     /// Rows of zenith angle θ, 1–128; θ_i = (i + ½)·90°/theta.
-    #[serde(default = "default_theta")]
-    #[cfg_attr(feature = "clap", arg(long, default_value_t = default_theta()))]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = ReliefOptions::default().theta))]
     pub theta: u32,
     /// Azimuths φ per row, 1–128; φ_j = 360°·j/phi.
-    #[serde(default = "default_phi")]
-    #[cfg_attr(feature = "clap", arg(long, default_value_t = default_phi()))]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = ReliefOptions::default().phi))]
     pub phi: u32,
     /// Width of the stored maps: a power of two up to the map width (MIN-downscaled); none: 32,
     /// or the map width when smaller.
-    #[serde(default = "default_size")]
     #[cfg_attr(feature = "clap", arg(long))]
     pub size: Option<u32>,
     /// Relief thickness as a share of the map width.
-    #[serde(default = "default_depth_scale")]
-    #[cfg_attr(feature = "clap", arg(long, default_value_t = default_depth_scale()))]
+    #[cfg_attr(feature = "clap", arg(long, default_value_t = ReliefOptions::default().depth_scale))]
     pub depth_scale: f32,
     /// Storage of the depth maps: r8 (the paper's memory) or r16f; both rounded down.
-    #[serde(default)]
-    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = ReliefFormat::R8Unorm))]
+    #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = ReliefOptions::default().format))]
     pub format: ReliefFormat,
     /// A configuration of seed 003 by name; it sets theta, phi, size and format, which are then
     /// left at their defaults.
-    #[serde(default)]
     #[cfg_attr(feature = "clap", arg(long, value_enum))]
     pub preset: Option<ReliefPreset>,
+}
+
+impl Default for ReliefOptions {
+    fn default() -> Self {
+        let d = ReliefParams::default();
+        ReliefOptions {
+            theta: d.theta,
+            phi: d.phi,
+            size: d.size,
+            depth_scale: d.depth_scale,
+            format: d.format,
+            preset: None,
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for ReliefJob {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let (id, source, options) = deserialize_flat(d, "Relief")?;
+        Ok(ReliefJob { id, source, options })
+    }
 }
 
 /// Named relief settings that reproduce a configuration of seed 003.
@@ -86,52 +108,21 @@ impl ReliefPreset {
     }
 }
 
-fn default_theta() -> u32 {
-    ReliefParams::default().theta
-}
-fn default_phi() -> u32 {
-    ReliefParams::default().phi
-}
-fn default_size() -> Option<u32> {
-    ReliefParams::default().size
-}
-fn default_depth_scale() -> f32 {
-    ReliefParams::default().depth_scale
-}
-
 impl ReliefJob {
     /// A job with every setting at its default.
     pub fn new(id: &str, input: PathBuf) -> ReliefJob {
-        let d = ReliefParams::default();
-        ReliefJob {
-            id: id.to_string(),
-            input,
-            channel: None,
-            theta: d.theta,
-            phi: d.phi,
-            size: d.size,
-            depth_scale: d.depth_scale,
-            format: d.format,
-            preset: None,
-        }
+        ReliefJob { id: id.to_string(), source: HeightSource::new(input), options: ReliefOptions::default() }
     }
 
     /// The baker's parameters: the preset's, if any, with this job's depth scale.
     pub fn params(&self) -> ReliefParams {
-        match self.preset {
-            Some(preset) => ReliefParams { depth_scale: self.depth_scale, ..preset.params() },
-            None => ReliefParams {
-                theta: self.theta,
-                phi: self.phi,
-                size: self.size,
-                depth_scale: self.depth_scale,
-                format: self.format,
-            },
+        let o = &self.options;
+        match o.preset {
+            Some(preset) => ReliefParams { depth_scale: o.depth_scale, ..preset.params() },
+            None => {
+                ReliefParams { theta: o.theta, phi: o.phi, size: o.size, depth_scale: o.depth_scale, format: o.format }
+            }
         }
-    }
-
-    fn heightfield_job(&self) -> HeightfieldJob {
-        HeightfieldJob { channel: self.channel.clone(), ..HeightfieldJob::new(&self.max_mip_id(), self.input.clone()) }
     }
 
     /// Id of the depth-map asset.
@@ -143,12 +134,18 @@ impl ReliefJob {
         format!("{}.maxmip", self.id)
     }
 
-    /// Loads the input and checks it can carry relief maps with these settings.
+    /// Loads the input and checks it can carry relief maps with these settings: its heights
+    /// (world units applied) in [0, 1], its sides powers of two.
     fn load(&self, ctx: &JobContext) -> Result<crate::Heightfield, BakeError> {
-        let hf = self.heightfield_job().load(ctx)?;
-        let path = ctx.base_dir.join(&self.input);
+        let source = &self.source;
+        let mut hf = source.load(ctx, &|v| relief::check_height(source.height_offset + source.height_scale * v))?;
+        let path = source.path(ctx.base_dir);
         self.params().check_for(hf.width, hf.height).map_err(|m| BakeError::input(&path, None, m))?;
-        relief::stored_heights(&hf).map_err(|m| BakeError::input(&path, None, m))?;
+        // Relief maps are in texture space: the heights are what the baker reads.
+        if (source.height_scale, source.height_offset) != (1.0, 0.0) {
+            hf.samples.iter_mut().for_each(|v| *v = source.height_offset + source.height_scale * *v);
+            (hf.height_scale, hf.height_offset) = (1.0, 0.0);
+        }
         Ok(hf)
     }
 }
@@ -167,7 +164,7 @@ impl Baker for ReliefJob {
     }
 
     fn inputs(&self, base_dir: &Path) -> Vec<PathBuf> {
-        vec![base_dir.join(&self.input)]
+        vec![self.source.path(base_dir)]
     }
 
     fn outputs(&self) -> Vec<String> {
@@ -177,17 +174,30 @@ impl Baker for ReliefJob {
     fn canonical_settings(&self) -> String {
         // The text the parameters' derived `Debug` gave under their first name: kept word for
         // word so bundles baked before keep their input hashes.
-        let p = self.params();
+        let (p, s) = (self.params(), &self.source);
+        // The source's other fields are appended only when given, so bundles baked before they
+        // existed keep their hashes.
+        let raw = s.raw_size.map(|(w, h)| format!(";raw_size=({w},{h})")).unwrap_or_default();
+        let world = if (s.height_scale, s.height_offset) != (1.0, 0.0) {
+            format!(";height_scale={:?};height_offset={:?}", s.height_scale, s.height_offset)
+        } else {
+            String::new()
+        };
         format!(
-            "{:?};ReliefSettings {{ theta: {}, phi: {}, size: {:?}, depth_scale: {:?}, format: {:?} }}",
-            self.channel, p.theta, p.phi, p.size, p.depth_scale, p.format
+            "{:?};ReliefSettings {{ theta: {}, phi: {}, size: {:?}, depth_scale: {:?}, format: {:?} }}{raw}{world}",
+            s.channel, p.theta, p.phi, p.size, p.depth_scale, p.format
         )
     }
 
     fn check(&self) -> Result<(), String> {
-        if let Some(preset) = self.preset {
-            let d = ReliefParams::default();
-            if (self.theta, self.phi, self.size, self.format) != (d.theta, d.phi, d.size, d.format) {
+        self.source.check()?;
+        if self.source.texel_size != HeightSource::new("").texel_size {
+            return Err("texel_size has no meaning for relief maps (they are in texture space): leave it out".into());
+        }
+        let o = &self.options;
+        if let Some(preset) = o.preset {
+            let d = ReliefOptions::default();
+            if (o.theta, o.phi, o.size, o.format) != (d.theta, d.phi, d.size, d.format) {
                 return Err(format!(
                     "preset {preset:?} sets theta, phi, size and format; leave them out or drop the preset"
                 ));
@@ -198,24 +208,15 @@ impl Baker for ReliefJob {
 
     fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
         // A block of the file at a time, with the checks `load` makes.
-        let path = ctx.base_dir.join(&self.input);
-        let options =
-            LoadOptions { channel: self.channel.clone(), max_dimension: ctx.limits.max_dimension, raw_size: None };
-        let mut source = HeightSource::open(&path, &options)?;
-        let (w, h) = source.size();
-        self.params().check_for(w, h).map_err(|m| BakeError::input(&path, None, m))?;
-        source.scan(&|v| {
-            if (0.0..=1.0).contains(&v) {
-                Ok(())
-            } else {
-                Err(format!("relief heights must lie in [0, 1] (depth = 1 − height); the sample is {v}"))
-            }
-        })
+        let s = &self.source;
+        let file = s.scan(ctx, &|v| relief::check_height(s.height_offset + s.height_scale * v))?;
+        let (w, h) = file.size();
+        self.params().check_for(w, h).map_err(|m| BakeError::input(s.path(ctx.base_dir), None, m))
     }
 
     fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
         let hf = self.load(ctx)?;
-        let path = ctx.base_dir.join(&self.input);
+        let path = self.source.path(ctx.base_dir);
         let p = self.params();
         let baked = relief::bake(&hf, &p, ctx.progress).map_err(|m| BakeError::input(&path, None, m))?;
         let settings = ReliefSettings {
@@ -236,13 +237,9 @@ impl Baker for ReliefJob {
             BakedAsset {
                 id: self.max_mip_id(),
                 settings: Settings::MaxMip(MaxMipSettings { source_channel: hf.source_channel.clone() }),
-                payload: BakedPayload::Texture(baked.max_mip),
+                payload: baked.max_mip.into(),
             },
-            BakedAsset {
-                id: self.relief_id(),
-                settings: Settings::Relief(settings),
-                payload: BakedPayload::Texture(baked.depth),
-            },
+            BakedAsset { id: self.relief_id(), settings: Settings::Relief(settings), payload: baked.depth.into() },
         ])
     }
 }

@@ -17,7 +17,7 @@ mod spans;
 
 use std::path::{Path, PathBuf};
 
-use serde::{Deserialize, Serialize};
+use serde::Deserialize;
 
 pub use spans::{Fields, Place, Spans};
 
@@ -26,7 +26,7 @@ use crate::jobs::{Job, JobContext};
 use crate::limits::InputLimits;
 
 /// A parsed pipeline file.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Pipeline {
     /// Output bundle directory.
@@ -206,8 +206,8 @@ mod tests {
         )
         .unwrap();
         let Job::Heightfield(h) = &p.jobs[0] else { panic!("expected a heightfield job") };
-        assert_eq!(h.texel_size, (1.0, 1.0));
-        assert_eq!(h.channel.as_deref(), Some("R"));
+        assert_eq!(h.source.texel_size, (1.0, 1.0));
+        assert_eq!(h.source.channel.as_deref(), Some("R"));
 
         let err = Pipeline::parse(
             "(\n output: \"b\",\n jobs: [Heightfield(id: \"t\", input: \"t.png\", hieght_scale: 2)],\n)",

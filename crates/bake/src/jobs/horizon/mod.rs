@@ -1,5 +1,5 @@
 //! The `Horizon` job: a heightfield image → the heightfield asset, the horizon texture and,
-//! optionally, an ambient-occlusion map derived from it; whole, or in tiles ([`tile`]).
+//! optionally, an ambient-occlusion map derived from it; whole, or in tiles (`tile: Some(SIZE)`, each tile a job of its own).
 
 mod tile;
 
