@@ -125,8 +125,8 @@ fn hair_camera_pass_matches_the_cpu_composite() {
     let Some(g) = gpu("hair_camera_pass_matches_the_cpu_composite") else { return };
     let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
     let size = (128u32, 96u32);
-    let options =
-        HairOptions { resolution: 128, depth_format: Some(DEPTH_FORMAT), ..HairOptions::new(COLOR_FORMAT, size) };
+    let mut options = HairOptions { resolution: 128, ..HairOptions::new(COLOR_FORMAT, size) };
+    options.draw.depth_format = Some(DEPTH_FORMAT);
     let renderer = HairRenderer::new(&g.device, &g.queue, &gb, "s.strips", &options).unwrap();
     let light = renderer.light(Vec3::new(0.3, 1.0, 0.4));
     let eye = Vec3::new(0.2, 1.2, 3.0);

@@ -36,14 +36,15 @@ pub(crate) fn entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayou
     }
 }
 
-/// A uniform buffer binding.
-pub(crate) fn uniform_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+/// A binding of a uniform buffer holding a `T`: its minimum size is `T`'s, so a buffer or a
+/// WGSL struct of another size fails when the pipeline or bind group is made, not at a draw.
+pub(crate) fn uniform_entry<T: bytemuck::Pod>(binding: u32) -> wgpu::BindGroupLayoutEntry {
     entry(
         binding,
         wgpu::BindingType::Buffer {
             ty: wgpu::BufferBindingType::Uniform,
             has_dynamic_offset: false,
-            min_binding_size: None,
+            min_binding_size: std::num::NonZeroU64::new(std::mem::size_of::<T>() as u64),
         },
     )
 }
@@ -139,6 +140,58 @@ pub(crate) fn checked<T>(device: &wgpu::Device, what: &str, create: impl FnOnce(
     }
 }
 
+/// One render pipeline of a component: its stages, vertex buffers, targets and depth state,
+/// with the component's bind group layout at the group index the game chose.
+pub(crate) struct PipelineDesc<'a> {
+    pub label: &'a str,
+    pub vs: &'a str,
+    pub fs: &'a str,
+    pub buffers: &'a [Option<wgpu::VertexBufferLayout<'a>>],
+    pub targets: &'a [Option<wgpu::ColorTargetState>],
+    pub depth: Option<wgpu::DepthStencilState>,
+    pub cull_mode: Option<wgpu::Face>,
+}
+
+/// The one way a component builds a render pipeline: `desc` over `module`, with `layout` at
+/// `group` (nothing at the indices below).
+pub(crate) fn render_pipeline(
+    device: &wgpu::Device,
+    module: &wgpu::ShaderModule,
+    (group, layout): (u32, &wgpu::BindGroupLayout),
+    desc: PipelineDesc,
+) -> wgpu::RenderPipeline {
+    let pipeline_layout = pipeline_layout(device, group, layout);
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(desc.label),
+        layout: Some(&pipeline_layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some(desc.vs),
+            compilation_options: Default::default(),
+            buffers: desc.buffers,
+        },
+        primitive: wgpu::PrimitiveState { cull_mode: desc.cull_mode, ..Default::default() },
+        depth_stencil: desc.depth,
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some(desc.fs),
+            compilation_options: Default::default(),
+            targets: desc.targets,
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+/// A shader module of `wgsl`.
+pub(crate) fn module(device: &wgpu::Device, label: &str, wgsl: &str) -> wgpu::ShaderModule {
+    device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(wgsl.into()),
+    })
+}
+
 /// What a drawing component holds: its WGSL (bindings at the game's group), its bind group and
 /// layout, and the pipeline built for the game's targets.
 #[derive(Debug)]
@@ -159,8 +212,9 @@ pub(crate) struct Stages<'a> {
 }
 
 impl Program {
-    /// Builds the pipeline of `source` (bindings at `@group(0)`, moved to the options' group)
-    /// around `layout` and `bind_group`, for `options`' targets, inside a validation scope.
+    /// Builds the pipeline of `source` (after [`crate::SCENE_WGSL`]; bindings at `@group(0)`,
+    /// moved to the options' group) around `layout` and `bind_group`, for `options`' targets,
+    /// inside a validation scope.
     pub fn new(
         device: &wgpu::Device,
         asset: &str,
@@ -170,35 +224,23 @@ impl Program {
         buffers: &[Option<wgpu::VertexBufferLayout>],
         options: &DrawOptions,
     ) -> Result<Program, RuntimeError> {
-        let wgsl = at_group(&source, options.group);
+        let wgsl = at_group(&format!("{}\n{source}", crate::SCENE_WGSL), options.group);
         let pipeline = checked(device, asset, || {
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(stages.vs),
-                source: wgpu::ShaderSource::Wgsl(wgsl.as_str().into()),
-            });
-            let pipeline_layout = pipeline_layout(device, options.group, &layout);
             let fs = if options.visibility_format.is_some() { stages.fs_visibility } else { stages.fs };
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(fs),
-                layout: Some(&pipeline_layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some(stages.vs),
-                    compilation_options: Default::default(),
+            render_pipeline(
+                device,
+                &module(device, stages.vs, &wgsl),
+                (options.group, &layout),
+                PipelineDesc {
+                    label: fs,
+                    vs: stages.vs,
+                    fs,
                     buffers,
-                },
-                primitive: wgpu::PrimitiveState { cull_mode: options.cull_mode, ..Default::default() },
-                depth_stencil: options.depth_format.map(depth_state),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some(fs),
-                    compilation_options: Default::default(),
                     targets: &targets(options.color.clone(), options.visibility_format),
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
+                    depth: options.depth_format.map(depth_state),
+                    cull_mode: options.cull_mode,
+                },
+            )
         })?;
         Ok(Program { wgsl, layout, bind_group, pipeline, group: options.group })
     }

@@ -85,6 +85,7 @@ pub mod hair;
 pub mod horizon;
 mod load;
 pub mod relief;
+mod scene;
 pub mod shadow_fit;
 mod upload;
 
@@ -93,35 +94,113 @@ pub use draw::DrawOptions;
 pub use error::RuntimeError;
 pub use glam;
 pub use load::{Changes, CpuAsset, CpuBundle, CpuPayload};
+pub use scene::{SCENE_WGSL, SceneUniform};
 pub use upload::{GpuBundle, GpuMesh, GpuTexture, wgpu_format};
 pub use wgpu;
 
-/// Every WGSL source the crate builds, as a component builds it, parses and validates (naga,
-/// no device): a typo in a shader fails here, not in a game's first frame.
+/// The WGSL sources the components build, as each builds them: a typo in a shader or a
+/// uniform whose Rust layout differs from its WGSL struct fails here, not in a game's first
+/// frame.
 #[cfg(test)]
 mod wgsl_tests {
+    use crate::hair::HairUniform;
+    use crate::horizon::{HorizonEncoding, SurfaceUniform, TerrainUniform};
+    use crate::relief::{ReliefMaterialUniform, ReliefUniform};
+    use crate::scene::{SCENE_WGSL, SceneUniform};
+
+    fn sources() -> Vec<(&'static str, String)> {
+        let horizon = crate::horizon::HORIZON_WGSL;
+        let relief = crate::relief::RELIEF_WGSL;
+        vec![
+            ("horizon", horizon.to_string()),
+            ("terrain", format!("{SCENE_WGSL}\n{horizon}\n{}", include_str!("shaders/terrain.wgsl"))),
+            ("surface", format!("{SCENE_WGSL}\n{horizon}\n{}", include_str!("shaders/surface.wgsl"))),
+            ("relief", relief.to_string()),
+            ("hair", crate::hair::HAIR_WGSL.to_string()),
+            ("relief material", format!("{SCENE_WGSL}\n{relief}\n{}", include_str!("shaders/relief_material.wgsl"))),
+        ]
+    }
+
+    fn parse(name: &str, source: &str) -> naga::Module {
+        naga::front::wgsl::parse_str(source).unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)))
+    }
+
     #[test]
     fn every_shader_validates() {
-        let sources = [
-            ("horizon", crate::horizon::HORIZON_WGSL.to_string()),
-            ("terrain", format!("{}\n{}", crate::horizon::HORIZON_WGSL, include_str!("shaders/terrain.wgsl"))),
-            ("surface", format!("{}\n{}", crate::horizon::HORIZON_WGSL, include_str!("shaders/surface.wgsl"))),
-            ("relief", crate::relief::RELIEF_WGSL.to_string()),
-            ("hair", crate::hair::HAIR_WGSL.to_string()),
-            (
-                "relief material",
-                format!("{}\n{}", crate::relief::RELIEF_WGSL, include_str!("shaders/relief_material.wgsl")),
-            ),
-        ];
-        for (name, source) in sources {
+        for (name, source) in sources() {
             for group in [0, 3] {
                 let source = crate::gpu::at_group(&source, group);
-                let module = naga::front::wgsl::parse_str(&source)
-                    .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&source)));
                 naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-                    .validate(&module)
+                    .validate(&parse(name, &source))
                     .unwrap_or_else(|e| panic!("{name} at group {group}: {}", e.emit_to_string(&source)));
             }
+        }
+    }
+
+    /// Byte offsets of a Rust uniform's fields by name, and its size.
+    macro_rules! layout {
+        ($t:ty; $($field:ident),*) => {
+            (std::mem::size_of::<$t>(), vec![$((stringify!($field), std::mem::offset_of!($t, $field))),*])
+        };
+    }
+
+    /// Every uniform's size and field offsets equal naga's layout of its WGSL struct (padding
+    /// members, named `_…`, aside).
+    #[test]
+    fn every_uniform_matches_its_wgsl_struct() {
+        let uniforms = [
+            ("terrain", "Scene", layout!(SceneUniform; view_proj, model, light, light_color, ambient, albedo)),
+            ("terrain", "HorizonEncoding", layout!(HorizonEncoding; format, distance_scale, open_sky_slope)),
+            (
+                "terrain",
+                "TerrainUniform",
+                layout!(TerrainUniform; scene, texel_size, height_scale, height_offset, size, has_ao, encoding),
+            ),
+            (
+                "surface",
+                "SurfaceUniform",
+                layout!(SurfaceUniform; scene, tile, texel_size, height_scale, height_offset, size, encoding),
+            ),
+            (
+                "relief",
+                "ReliefUniform",
+                layout!(ReliefUniform; size, depth_size, levels, theta_rows, phi_cols, tracer, thickness, steps, binary,
+                    start_level, stop_level, margin, direction_rule, visibility, visibility_steps, visibility_binary),
+            ),
+            (
+                "relief material",
+                "ReliefMaterialUniform",
+                layout!(ReliefMaterialUniform; scene, eye, tile, ao_stride, shadows, bias),
+            ),
+            (
+                "hair",
+                "HairUniform",
+                layout!(HairUniform; light, light_inverse, bounds_min, bounds_max, camera, eye, to_light, light_color,
+                    ambient, step, opacity_set, resolution, specular_power, specular, layer_rule, lookup),
+            ),
+        ];
+        let sources = sources();
+        for (module, name, (size, fields)) in uniforms {
+            let source = &sources.iter().find(|s| s.0 == module).unwrap().1;
+            let naga = parse(module, source);
+            let (members, span) = naga
+                .types
+                .iter()
+                .find_map(|(_, ty)| match &ty.inner {
+                    naga::TypeInner::Struct { members, span } if ty.name.as_deref() == Some(name) => {
+                        Some((members.clone(), *span))
+                    }
+                    _ => None,
+                })
+                .unwrap_or_else(|| panic!("no struct {name} in {module}"));
+            assert_eq!(span as usize, size, "{name}: WGSL size {span}, Rust {size}");
+            let wgsl: Vec<(String, usize)> = members
+                .iter()
+                .filter_map(|m| m.name.clone().map(|n| (n, m.offset as usize)))
+                .filter(|(n, _)| !n.starts_with('_'))
+                .collect();
+            let rust: Vec<(String, usize)> = fields.into_iter().map(|(n, o)| (n.to_string(), o)).collect();
+            assert_eq!(wgsl, rust, "{name}: WGSL members and offsets against Rust's");
         }
     }
 }

@@ -177,11 +177,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // The sample head's picture: the views of (a), (b), (c) above their ground shadows, and the
     // reference's shadow.
     let (w, h) = (320u32, 240u32);
-    let options = HairOptions {
-        resolution: RESOLUTION,
-        depth_format: Some(DEPTH_FORMAT),
-        ..HairOptions::new(COLOR_FORMAT, (w, h))
-    };
+    let mut options = HairOptions { resolution: RESOLUTION, ..HairOptions::new(COLOR_FORMAT, (w, h)) };
+    options.draw.depth_format = Some(DEPTH_FORMAT);
     let paper = HairRenderer::new(&g.device, &g.queue, &gb, "head.strips", &options)?;
     let auto = HairRenderer::new(&g.device, &g.queue, &gb, "head_auto.strips", &options)?;
     let stage = Stage::new(Vec3::from(paper.settings().bounds_min), Vec3::from(paper.settings().bounds_max));

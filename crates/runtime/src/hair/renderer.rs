@@ -5,6 +5,7 @@ use glam::{Mat4, Vec3};
 use hikage_bundle::{ComponentType, MeshDesc, StrandsSettings};
 
 use super::{HAIR_WGSL, HairLight, HairSet};
+use crate::draw::DrawOptions;
 use crate::error::RuntimeError;
 use crate::gpu;
 use crate::upload::GpuBundle;
@@ -131,26 +132,24 @@ impl HairFrame {
 /// How the renderer's pipelines are built.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HairOptions {
+    /// The game's targets, as every component takes them: the colour target
+    /// [`HairRenderer::composite`] and [`HairRenderer::draw_opaque`] draw into (its format;
+    /// blending is the renderer's), the depth format the camera passes test so hair hides
+    /// behind geometry (`None` without depth), and the bind group index of the renderer's group
+    /// in every pipeline and of the receivers' group in the game's own shaders. Culling and the
+    /// visibility target do not apply to hair.
+    pub draw: DrawOptions,
     /// Opacity-map texels per side.
     pub resolution: u32,
-    /// The game's colour target, which [`HairRenderer::composite`] and
-    /// [`HairRenderer::draw_opaque`] draw into (its format; blending is the renderer's).
-    pub color_format: wgpu::TextureFormat,
-    /// The game's depth format: the camera passes test the scene's depth so hair hides behind
-    /// geometry. `None` when the game draws without depth.
-    pub depth_format: Option<wgpu::TextureFormat>,
     /// The frame's size in pixels (the order-independent blend keeps two targets of it;
     /// [`HairRenderer::resize`] changes it).
     pub size: (u32, u32),
-    /// The bind group index of the renderer's group in every pipeline, and of the receivers'
-    /// group ([`HairRenderer::receiver_bind_group`]) in the game's own shaders.
-    pub group: u32,
 }
 
 impl HairOptions {
     /// 256² opacity maps, a `size` frame drawn into `color_format` with no depth, group 0.
     pub fn new(color_format: wgpu::TextureFormat, size: (u32, u32)) -> HairOptions {
-        HairOptions { resolution: 256, color_format, depth_format: None, size, group: 0 }
+        HairOptions { draw: DrawOptions::new(color_format), resolution: 256, size }
     }
 }
 
@@ -168,10 +167,8 @@ impl HairOptions {
 /// use hikage_runtime::hair::{HairFrame, HairOptions, HairRenderer};
 /// use hikage_runtime::{glam::Vec3, wgpu};
 ///
-/// let options = HairOptions {
-///     depth_format: Some(wgpu::TextureFormat::Depth32Float),
-///     ..HairOptions::new(wgpu::TextureFormat::Rgba8UnormSrgb, (1280, 720))
-/// };
+/// let mut options = HairOptions::new(wgpu::TextureFormat::Rgba8UnormSrgb, (1280, 720));
+/// options.draw.depth_format = Some(wgpu::TextureFormat::Depth32Float);
 /// let hair = HairRenderer::new(device, queue, gpu, "head.strips", &options)?;
 /// let light = hair.light(Vec3::new(0.45, 1.0, 0.3));
 /// hair.update(queue, &HairFrame::new(camera, eye, light));
@@ -284,7 +281,7 @@ impl HairRenderer {
             return Err(bad(format!("opacity maps of {} texels a side do not fit this device", options.resolution)));
         }
         let resolution = options.resolution;
-        let wgsl = gpu::at_group(HAIR_WGSL, options.group);
+        let wgsl = gpu::at_group(HAIR_WGSL, options.draw.group);
         let uniform = gpu::uniform_buffer(device, queue, "hikage hair", &HairUniform::zeroed_for(resolution));
         let maps = (resolution, resolution);
         let depth_map = texture(device, maps, DEPTH_MAP, "hikage hair depth map");
@@ -306,9 +303,9 @@ impl HairRenderer {
             device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries })
         };
         let layouts = Layouts {
-            light: layout("hikage hair light", &[gpu::uniform_entry(0)]),
-            opacity: layout("hikage hair opacity", &[gpu::uniform_entry(0), sampled(1)]),
-            receiver: layout("hikage hair receivers", &[gpu::uniform_entry(0), sampled(1), sampled(2)]),
+            light: layout("hikage hair light", &[gpu::uniform_entry::<HairUniform>(0)]),
+            opacity: layout("hikage hair opacity", &[gpu::uniform_entry::<HairUniform>(0), sampled(1)]),
+            receiver: layout("hikage hair receivers", &[gpu::uniform_entry::<HairUniform>(0), sampled(1), sampled(2)]),
             composite: layout("hikage hair composite", &[sampled(3), sampled(4)]),
         };
         let (depth_view, layers_view) =
@@ -325,7 +322,7 @@ impl HairRenderer {
         let pipelines = gpu::checked(device, strips, || pipelines(device, &wgsl, &layouts, options))?;
         Ok(HairRenderer {
             wgsl,
-            group: options.group,
+            group: options.draw.group,
             resolution,
             settings,
             buffer: mesh.buffer.clone(),
@@ -342,7 +339,7 @@ impl HairRenderer {
             accum,
             revealage,
             pipelines,
-            has_depth: options.depth_format.is_some(),
+            has_depth: options.draw.depth_format.is_some(),
         })
     }
 
@@ -524,10 +521,7 @@ fn frame_targets(
 }
 
 fn pipelines(device: &wgpu::Device, wgsl: &str, layouts: &Layouts, options: &HairOptions) -> Pipelines {
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("hikage hair"),
-        source: wgpu::ShaderSource::Wgsl(wgsl.into()),
-    });
+    let module = gpu::module(device, "hikage hair", wgsl);
     let attributes: Vec<[wgpu::VertexAttribute; 1]> = STREAMS
         .iter()
         .enumerate()
@@ -555,49 +549,33 @@ fn pipelines(device: &wgpu::Device, wgsl: &str, layouts: &Layouts, options: &Hai
         operation: wgpu::BlendOperation::Add,
     };
     let target = |format, blend| Some(wgpu::ColorTargetState { format, blend, write_mask: wgpu::ColorWrites::ALL });
-    let depth = |format, write, compare| wgpu::DepthStencilState {
-        format,
-        depth_write_enabled: Some(write),
-        depth_compare: Some(compare),
-        stencil: Default::default(),
-        bias: Default::default(),
-    };
+    let depth =
+        |format, write| wgpu::DepthStencilState { depth_write_enabled: Some(write), ..gpu::depth_state(format) };
+    let scene_depth = |write| options.draw.depth_format.map(|f| depth(f, write));
+    let color = options.draw.color.format;
     let pipeline = |layout: &wgpu::BindGroupLayout,
                     (vs, fs): (&str, &str),
                     strips: bool,
                     targets: &[Option<wgpu::ColorTargetState>],
-                    depth_stencil: Option<wgpu::DepthStencilState>| {
-        let pipeline_layout = gpu::pipeline_layout(device, options.group, layout);
-        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(fs),
-            layout: Some(&pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some(vs),
-                compilation_options: Default::default(),
-                buffers: if strips { &buffers } else { &[] },
-            },
-            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-            depth_stencil,
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some(fs),
-                compilation_options: Default::default(),
-                targets,
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
+                    depth: Option<wgpu::DepthStencilState>| {
+        let desc = gpu::PipelineDesc {
+            label: fs,
+            vs,
+            fs,
+            buffers: if strips { &buffers } else { &[] },
+            targets,
+            depth,
+            cull_mode: None,
+        };
+        gpu::render_pipeline(device, &module, (options.draw.group, layout), desc)
     };
-    let scene_depth = |write| options.depth_format.map(|f| depth(f, write, wgpu::CompareFunction::Less));
     Pipelines {
         depth: pipeline(
             &layouts.light,
             ("hair_vs_light", "hair_fs_depth"),
             true,
             &[target(DEPTH_MAP, None)],
-            Some(depth(wgpu::TextureFormat::Depth32Float, true, wgpu::CompareFunction::Less)),
+            Some(depth(wgpu::TextureFormat::Depth32Float, true)),
         ),
         opacity: pipeline(
             &layouts.opacity,
@@ -620,14 +598,14 @@ fn pipelines(device: &wgpu::Device, wgsl: &str, layouts: &Layouts, options: &Hai
             &layouts.receiver,
             ("hair_vs_camera", "hair_fs_opaque"),
             true,
-            &[target(options.color_format, None)],
+            &[target(color, None)],
             scene_depth(true),
         ),
         composite: pipeline(
             &layouts.composite,
             ("hair_vs_composite", "hair_fs_composite"),
             false,
-            &[target(options.color_format, Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING))],
+            &[target(color, Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING))],
             None,
         ),
     }

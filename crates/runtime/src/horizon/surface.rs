@@ -14,6 +14,7 @@ use crate::draw::DrawOptions;
 use crate::error::RuntimeError;
 use crate::gpu;
 use crate::load::CpuBundle;
+use crate::scene::SceneUniform;
 use crate::upload::{GpuBundle, GpuMesh};
 
 const SURFACE_WGSL: &str = include_str!("../shaders/surface.wgsl");
@@ -69,18 +70,9 @@ impl Default for SurfaceFrame {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct SurfaceUniform {
-    /// World → clip, column-major.
-    pub view_proj: [[f32; 4]; 4],
-    /// Mesh space → world, column-major.
-    pub model: [[f32; 4]; 4],
-    /// `xyz`: unit direction toward the light in mesh space; `w`: 1 corrected, 0 flat.
-    pub light: [f32; 4],
-    /// Light RGB.
-    pub light_color: [f32; 4],
-    /// Ambient RGB.
-    pub ambient: [f32; 4],
-    /// Albedo RGB.
-    pub albedo: [f32; 4],
+    /// The head every component shares: `model` mesh space → world; `light` the unit direction
+    /// toward the light in mesh space, `w` 1 for the curvature-corrected test, 0 flat.
+    pub scene: SceneUniform,
     /// One tile of the bump map in its world units, `(W·sx, H·sy)`.
     pub tile: [f32; 2],
     /// The bump map's texel size.
@@ -156,7 +148,7 @@ impl SurfaceShadows {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("hikage surface"),
             entries: &[
-                gpu::uniform_entry(0),
+                gpu::uniform_entry::<SurfaceUniform>(0),
                 gpu::texture_entry(1, wgpu::TextureViewDimension::D3, filterable),
                 gpu::sampler_entry(2, filterable),
                 gpu::texture_entry(3, wgpu::TextureViewDimension::D2, false),
@@ -225,15 +217,10 @@ impl SurfaceShadows {
     /// The uniform for `frame`: the light taken into mesh space, with the bump map's constants.
     pub fn uniform(&self, frame: &SurfaceFrame) -> SurfaceUniform {
         let light = frame.model.inverse().transform_vector3(frame.light).normalize_or(Vec3::Z);
-        SurfaceUniform {
-            view_proj: frame.view_proj.to_cols_array_2d(),
-            model: frame.model.to_cols_array_2d(),
-            light: light.extend(if frame.corrected { 1.0 } else { 0.0 }).to_array(),
-            light_color: frame.light_color.extend(0.0).to_array(),
-            ambient: frame.ambient.extend(0.0).to_array(),
-            albedo: frame.albedo.extend(1.0).to_array(),
-            ..self.statics
-        }
+        let light = light.extend(if frame.corrected { 1.0 } else { 0.0 });
+        let scene =
+            SceneUniform::new(frame.view_proj, frame.model, light, frame.light_color, frame.ambient, frame.albedo);
+        SurfaceUniform { scene, ..self.statics }
     }
 
     /// Writes the uniform for `frame`; the next submitted draw uses it.

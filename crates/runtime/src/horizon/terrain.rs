@@ -8,6 +8,7 @@ use super::{HORIZON_WGSL, HorizonEncoding, horizon_filterable, horizon_sampler};
 use crate::draw::DrawOptions;
 use crate::error::RuntimeError;
 use crate::gpu;
+use crate::scene::SceneUniform;
 use crate::upload::{GpuBundle, GpuTexture};
 
 /// WGSL of the terrain: its uniform, bindings (at `@group(0)`, moved to the chosen group by
@@ -67,18 +68,10 @@ impl Default for TerrainFrame {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct TerrainUniform {
-    /// World → clip, column-major.
-    pub view_proj: [[f32; 4]; 4],
-    /// Terrain frame → world, column-major.
-    pub model: [[f32; 4]; 4],
-    /// `xyz`: unit direction toward the sun in the terrain frame; `w`: its angular radius.
-    pub sun: [f32; 4],
-    /// Sun RGB.
-    pub sun_color: [f32; 4],
-    /// Sky RGB.
-    pub sky_color: [f32; 4],
-    /// Albedo RGB.
-    pub albedo: [f32; 4],
+    /// The head every component shares: `model` terrain frame → world; `light` the unit
+    /// direction toward the sun in the terrain frame, `w` its angular radius; `light_color` the
+    /// sun's; `ambient` the sky's.
+    pub scene: SceneUniform,
     /// World units per texel along `u` and `v`.
     pub texel_size: [f32; 2],
     /// World height = `height_offset + height_scale × sample`.
@@ -174,7 +167,7 @@ impl TerrainShadows {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("hikage terrain"),
             entries: &[
-                gpu::uniform_entry(0),
+                gpu::uniform_entry::<TerrainUniform>(0),
                 gpu::texture_entry(1, wgpu::TextureViewDimension::D3, filterable),
                 gpu::sampler_entry(2, filterable),
                 gpu::texture_entry(3, wgpu::TextureViewDimension::D2, false),
@@ -244,15 +237,10 @@ impl TerrainShadows {
     pub fn uniform(&self, frame: &TerrainFrame) -> TerrainUniform {
         let to_terrain = frame.model.inverse();
         let sun = to_terrain.transform_vector3(frame.sun.direction).normalize_or(Vec3::Y);
-        TerrainUniform {
-            view_proj: frame.view_proj.to_cols_array_2d(),
-            model: frame.model.to_cols_array_2d(),
-            sun: sun.extend(frame.sun.angular_radius).to_array(),
-            sun_color: frame.sun.color.extend(0.0).to_array(),
-            sky_color: frame.sky_color.extend(0.0).to_array(),
-            albedo: frame.albedo.extend(1.0).to_array(),
-            ..self.statics
-        }
+        let light = sun.extend(frame.sun.angular_radius);
+        let scene =
+            SceneUniform::new(frame.view_proj, frame.model, light, frame.sun.color, frame.sky_color, frame.albedo);
+        TerrainUniform { scene, ..self.statics }
     }
 
     /// Writes the uniform for `frame`; the next submitted draw uses it.

@@ -7,6 +7,7 @@ use super::{RELIEF_WGSL, Reads, ReliefMaps, ReliefUniform, Tracer, VisibilityPat
 use crate::draw::DrawOptions;
 use crate::error::RuntimeError;
 use crate::gpu;
+use crate::scene::SceneUniform;
 use crate::upload::GpuBundle;
 use hikage_bundle::relief::DirectionRule;
 
@@ -90,20 +91,11 @@ impl Default for ReliefFrame {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ReliefMaterialUniform {
-    /// World → clip, column-major.
-    pub view_proj: [[f32; 4]; 4],
-    /// Mesh space → world, column-major.
-    pub model: [[f32; 4]; 4],
+    /// The head every component shares: `model` mesh space → world; `light` the unit direction
+    /// toward the light (world).
+    pub scene: SceneUniform,
     /// `w = 1`: the camera's position; `w = 0`: an orthographic camera's view direction.
     pub eye: [f32; 4],
-    /// `xyz`: unit direction toward the light.
-    pub light: [f32; 4],
-    /// Light RGB.
-    pub light_color: [f32; 4],
-    /// Ambient RGB.
-    pub ambient: [f32; 4],
-    /// Albedo RGB.
-    pub albedo: [f32; 4],
     /// World size of one tile along the tangent and the bitangent.
     pub tile: [f32; 2],
     /// Ambient occlusion stride (0: off).
@@ -119,18 +111,21 @@ pub struct ReliefMaterialUniform {
 impl ReliefMaterialUniform {
     /// The uniform of `frame`.
     pub fn new(frame: &ReliefFrame) -> ReliefMaterialUniform {
+        let light = frame.light.normalize().extend(0.0);
         ReliefMaterialUniform {
-            view_proj: frame.view_proj.to_cols_array_2d(),
-            model: frame.model.to_cols_array_2d(),
+            scene: SceneUniform::new(
+                frame.view_proj,
+                frame.model,
+                light,
+                frame.light_color,
+                frame.ambient,
+                frame.albedo,
+            ),
             eye: match frame.view_direction {
                 Some(d) => d.normalize().extend(0.0),
                 None => frame.eye.extend(1.0),
             }
             .to_array(),
-            light: frame.light.normalize().extend(0.0).to_array(),
-            light_color: frame.light_color.extend(0.0).to_array(),
-            ambient: frame.ambient.extend(0.0).to_array(),
-            albedo: frame.albedo.extend(1.0).to_array(),
             tile: frame.tile.to_array(),
             ao_stride: frame.ao_stride,
             shadows: u32::from(frame.shadows),
@@ -199,8 +194,8 @@ impl ReliefMaterial {
             entries: &[
                 gpu::texture_entry(0, wgpu::TextureViewDimension::D2, false),
                 gpu::texture_entry(1, wgpu::TextureViewDimension::D2Array, false),
-                gpu::uniform_entry(2),
-                gpu::uniform_entry(3),
+                gpu::uniform_entry::<ReliefUniform>(2),
+                gpu::uniform_entry::<ReliefMaterialUniform>(3),
             ],
         });
         let tracing = gpu::uniform_buffer(device, queue, "hikage relief tracer", &statics);
@@ -320,7 +315,7 @@ pub fn relief_material_shade(
     let mut reads = Reads::default();
     let s = maps.trace(tracer, &ray, &mut reads);
     let p = [origin.x + s * dir.x, origin.y + s * dir.y, s * ray.dz()];
-    let l = Vec3::from_slice(&material.light[..3]);
+    let l = Vec3::from_slice(&material.scene.light[..3]);
     let lt = (Vec3::new(l.dot(t), l.dot(b), l.dot(n)) * scale).normalize();
     let mut lit = lt.z > 0.0;
     if material.shadows == 1 && lit {

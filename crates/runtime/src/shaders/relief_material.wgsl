@@ -1,17 +1,14 @@
 // Relief mapping as a material for any mesh with tangents (seed 003): the view ray taken into
 // the relief's texel space at each pixel, traced with the tracer chosen in `relief`, shaded with
 // depth-map shadows and ambient occlusion: hikage_runtime::relief::ReliefMaterial. Needs
-// RELIEF_WGSL before it. The mesh's surface is the relief's top plane (depth 0); the relief
+// SCENE_WGSL and RELIEF_WGSL before it. The mesh's surface is the relief's top plane (depth 0); the relief
 // lies below it, one tile per unit of uv.
 
 struct ReliefMaterialUniform {
-    view_proj: mat4x4<f32>,     // world -> clip
-    model: mat4x4<f32>,         // mesh space -> world (rotation, translation, uniform scale)
+    // model: mesh space -> world (rotation, translation, uniform scale); light: unit direction
+    // toward the light (world); ambient: scaled by the ambient occlusion's open share.
+    scene: Scene,
     eye: vec4<f32>,             // w = 1: the camera's position (world); w = 0: an orthographic camera's unit view direction
-    light: vec4<f32>,           // xyz: unit direction toward the light (world)
-    light_color: vec4<f32>,     // rgb
-    ambient: vec4<f32>,         // rgb, scaled by the ambient occlusion's open share
-    albedo: vec4<f32>,          // rgb
     tile: vec2<f32>,            // world size of one relief tile along the tangent and the bitangent
     ao_stride: u32,             // ambient occlusion over every n-th direction; 0: off
     shadows: u32,               // 1: depth-map shadows
@@ -41,23 +38,19 @@ struct ReliefVertex {
 @vertex
 fn relief_vs(v: ReliefVertexIn) -> ReliefVertex {
     var out: ReliefVertex;
-    let world = material.model * vec4<f32>(v.position, 1.0);
-    out.clip = material.view_proj * world;
+    let world = material.scene.model * vec4<f32>(v.position, 1.0);
+    out.clip = material.scene.view_proj * world;
     out.world = world.xyz;
-    out.normal = (material.model * vec4<f32>(v.normal, 0.0)).xyz;
-    out.tangent = vec4<f32>((material.model * vec4<f32>(v.tangent.xyz, 0.0)).xyz, v.tangent.w);
+    out.normal = (material.scene.model * vec4<f32>(v.normal, 0.0)).xyz;
+    out.tangent = vec4<f32>((material.scene.model * vec4<f32>(v.tangent.xyz, 0.0)).xyz, v.tangent.w);
     out.uv = v.uv;
     return out;
 }
 
-struct ReliefShade {
-    color: vec4<f32>,
-    // x: 1 lit, 0 shadowed; y: 1 (covered); z: ambient occlusion's open share; w: hit depth.
-    visibility: vec4<f32>,
-}
-
-// The whole material at a point of the mesh (world position, interpolated normal, tangent, uv).
-fn relief_material_shade(world: vec3<f32>, normal: vec3<f32>, tangent: vec4<f32>, uv: vec2<f32>) -> ReliefShade {
+// The whole material at a point of the mesh (world position, interpolated normal, tangent, uv);
+// visibility x: 1 lit, 0 shadowed; y: 1 (covered); z: ambient occlusion's open share; w: hit
+// depth.
+fn relief_material_shade(world: vec3<f32>, normal: vec3<f32>, tangent: vec4<f32>, uv: vec2<f32>) -> Shade {
     let n = normalize(normal);
     let t = normalize(tangent.xyz - n * dot(tangent.xyz, n));
     let b = tangent.w * cross(n, t);
@@ -70,9 +63,9 @@ fn relief_material_shade(world: vec3<f32>, normal: vec3<f32>, tangent: vec4<f32>
     let size = vec2<f32>(relief.size);
     let scale = vec3<f32>(size.x / material.tile.x, size.y / material.tile.y, size.x / material.tile.x);
     let dir = normalize(vec3<f32>(dot(d, t), dot(d, b), -dot(d, n)) * scale);
-    let l = material.light.xyz;
+    let l = material.scene.light.xyz;
     if (dir.z <= 1e-4) {
-        return ReliefShade(vec4<f32>(material.albedo.rgb * material.ambient.rgb, 1.0), vec4<f32>(0.0, 1.0, 1.0, 0.0));
+        return Shade(vec4<f32>(material.scene.albedo.rgb * material.scene.ambient.rgb, 1.0), vec4<f32>(0.0, 1.0, 1.0, 0.0));
     }
     let origin = uv * size;
     let r = ReliefRay(origin, dir);
@@ -92,8 +85,8 @@ fn relief_material_shade(world: vec3<f32>, normal: vec3<f32>, tangent: vec4<f32>
     let nt = relief_normal(p);
     let shading = normalize(t * nt.x + b * nt.y + n * nt.z);
     let direct = max(dot(shading, l), 0.0) * select(0.0, 1.0, lit);
-    let light = material.light_color.rgb * direct + material.ambient.rgb * ao;
-    return ReliefShade(vec4<f32>(material.albedo.rgb * light, 1.0), vec4<f32>(select(0.0, 1.0, lit), 1.0, ao, p.z));
+    let light = material.scene.light_color.rgb * direct + material.scene.ambient.rgb * ao;
+    return Shade(vec4<f32>(material.scene.albedo.rgb * light, 1.0), vec4<f32>(select(0.0, 1.0, lit), 1.0, ao, p.z));
 }
 
 @fragment
@@ -101,13 +94,8 @@ fn relief_fs(in: ReliefVertex) -> @location(0) vec4<f32> {
     return relief_material_shade(in.world, in.normal, in.tangent, in.uv).color;
 }
 
-struct ReliefTargets {
-    @location(0) color: vec4<f32>,
-    @location(1) visibility: vec4<f32>,
-}
-
 @fragment
-fn relief_fs_visibility(in: ReliefVertex) -> ReliefTargets {
+fn relief_fs_visibility(in: ReliefVertex) -> ShadeTargets {
     let s = relief_material_shade(in.world, in.normal, in.tangent, in.uv);
-    return ReliefTargets(s.color, s.visibility);
+    return ShadeTargets(s.color, s.visibility);
 }

@@ -1,15 +1,12 @@
 // A bump-mapped curved mesh with horizon shadows corrected for its curvature (seed 000 §3):
-// hikage_runtime::horizon::SurfaceShadows. Needs HORIZON_WGSL before it. Vertex streams come
+// hikage_runtime::horizon::SurfaceShadows. Needs SCENE_WGSL and HORIZON_WGSL before it. Vertex streams come
 // from a Curvature asset: position, uv, normal, curvature (k1, k2), principal1, principal2
 // (dot products with the unit tangents of +u and +v), tangent_u = dP/du, tangent_v = dP/dv.
 
 struct SurfaceUniform {
-    view_proj: mat4x4<f32>,     // world -> clip
-    model: mat4x4<f32>,         // mesh space -> world
-    light: vec4<f32>,           // xyz: unit direction toward the light, mesh space; w: 1 corrected, 0 flat test
-    light_color: vec4<f32>,     // rgb
-    ambient: vec4<f32>,         // rgb
-    albedo: vec4<f32>,          // rgb
+    // model: mesh space -> world; light: unit direction toward the light in mesh space, w 1 for
+    // the curvature-corrected test, 0 for the flat one.
+    scene: Scene,
     tile: vec2<f32>,            // one tile of the bump map in its world units: (W sx, H sy)
     texel_size: vec2<f32>,      // (sx, sy)
     height_scale: f32,          // bump height = height_offset + height_scale * sample
@@ -37,9 +34,9 @@ fn surface_texel(uv: vec2<f32>) -> vec2<i32> {
 
 // Is the surface point lit? Inputs as interpolated from the Curvature asset's streams.
 fn surface_lit(uv: vec2<f32>, normal: vec3<f32>, k: vec2<f32>, d1: vec2<f32>, d2: vec2<f32>, pu: vec3<f32>, pv: vec3<f32>) -> bool {
-    let s = horizon_surface_light(surface.light.xyz, pu, pv, normal, k.x, k.y, d1, d2, surface.tile);
+    let s = horizon_surface_light(surface.scene.light.xyz, pu, pv, normal, k.x, k.y, d1, d2, surface.tile);
     let h = surface_height_at(surface_texel(uv));
-    return horizon_surface_lit(surface_horizon, surface_sampler, surface.encoding, uv, s, h, surface.texel_size, surface.light.w > 0.5);
+    return horizon_surface_lit(surface_horizon, surface_sampler, surface.encoding, uv, s, h, surface.texel_size, surface.scene.light.w > 0.5);
 }
 
 // The bumped normal in mesh space: the surface P + n hs h(X, Y) over the bump frame.
@@ -79,7 +76,7 @@ struct SurfaceVertex {
 @vertex
 fn surface_vs(v: SurfaceVertexIn) -> SurfaceVertex {
     var out: SurfaceVertex;
-    out.clip = surface.view_proj * (surface.model * vec4<f32>(v.position, 1.0));
+    out.clip = surface.scene.view_proj * (surface.scene.model * vec4<f32>(v.position, 1.0));
     out.uv = v.uv;
     out.normal = v.normal;
     out.curvature = v.curvature;
@@ -90,19 +87,14 @@ fn surface_vs(v: SurfaceVertexIn) -> SurfaceVertex {
     return out;
 }
 
-struct SurfaceShade {
-    color: vec4<f32>,
-    // x: 1 lit, 0 shadowed; y: 1 (covered).
-    visibility: vec4<f32>,
-}
-
-fn surface_shade(in: SurfaceVertex) -> SurfaceShade {
+// The surface's shading; visibility x: 1 lit, 0 shadowed; y: 1 (covered).
+fn surface_shade(in: SurfaceVertex) -> Shade {
     let n = normalize(in.normal);
     let lit = surface_lit(in.uv, n, in.curvature, in.principal1, in.principal2, in.tangent_u, in.tangent_v);
     let bumped = surface_bumped_normal(in.uv, n, in.tangent_u, in.tangent_v);
-    let direct = max(dot(bumped, surface.light.xyz), 0.0) * select(0.0, 1.0, lit);
-    let light = surface.light_color.rgb * direct + surface.ambient.rgb;
-    return SurfaceShade(vec4<f32>(surface.albedo.rgb * light, 1.0), vec4<f32>(select(0.0, 1.0, lit), 1.0, 0.0, 1.0));
+    let direct = max(dot(bumped, surface.scene.light.xyz), 0.0) * select(0.0, 1.0, lit);
+    let light = surface.scene.light_color.rgb * direct + surface.scene.ambient.rgb;
+    return Shade(vec4<f32>(surface.scene.albedo.rgb * light, 1.0), vec4<f32>(select(0.0, 1.0, lit), 1.0, 0.0, 1.0));
 }
 
 @fragment
@@ -110,13 +102,8 @@ fn surface_fs(in: SurfaceVertex) -> @location(0) vec4<f32> {
     return surface_shade(in).color;
 }
 
-struct SurfaceTargets {
-    @location(0) color: vec4<f32>,
-    @location(1) visibility: vec4<f32>,
-}
-
 @fragment
-fn surface_fs_visibility(in: SurfaceVertex) -> SurfaceTargets {
+fn surface_fs_visibility(in: SurfaceVertex) -> ShadeTargets {
     let s = surface_shade(in);
-    return SurfaceTargets(s.color, s.visibility);
+    return ShadeTargets(s.color, s.visibility);
 }

@@ -1,17 +1,15 @@
 // Terrain under a sun with horizon shadows and ambient occlusion: hikage_runtime::horizon::
-// TerrainShadows. Needs HORIZON_WGSL before it. The heightfield is drawn as a grid through its
+// TerrainShadows. Needs SCENE_WGSL and HORIZON_WGSL before it. The heightfield is drawn as a grid through its
 // texel centres, generated from the vertex index (no vertex buffer).
 //
 // Terrain frame: x along +u (columns), y up, z along +v (rows), world units; the model matrix
 // places it in the world. Texel (i, j) has its centre at ((i + 0.5) sx, h, (j + 0.5) sy).
 
 struct TerrainUniform {
-    view_proj: mat4x4<f32>,     // world -> clip
-    model: mat4x4<f32>,         // terrain frame -> world
-    sun: vec4<f32>,             // xyz: unit direction toward the sun, terrain frame; w: angular radius (radians)
-    sun_color: vec4<f32>,       // rgb
-    sky_color: vec4<f32>,       // rgb, scaled by sky visibility (1 - ao)
-    albedo: vec4<f32>,          // rgb
+    // model: terrain frame -> world; light: unit direction toward the sun in the terrain frame,
+    // w its angular radius (radians); light_color: the sun's; ambient: the sky's, scaled by sky
+    // visibility (1 - ao).
+    scene: Scene,
     texel_size: vec2<f32>,      // world units per texel along u and v
     height_scale: f32,          // world height = height_offset + height_scale * sample
     height_offset: f32,
@@ -49,8 +47,8 @@ fn terrain_normal(texel: vec2<i32>) -> vec3<f32> {
 // Share of the sun disc above the horizon at texture coordinate uv.
 fn terrain_sun_visibility(uv: vec2<f32>) -> f32 {
     // The bump frame of the horizon map: x along +u, y along +v, z up.
-    let sun = vec3<f32>(terrain.sun.x, terrain.sun.z, terrain.sun.y);
-    return horizon_sun_visible(terrain_horizon, terrain_sampler, terrain.encoding, uv, sun, terrain.texel_size, terrain.sun.w);
+    let sun = vec3<f32>(terrain.scene.light.x, terrain.scene.light.z, terrain.scene.light.y);
+    return horizon_sun_visible(terrain_horizon, terrain_sampler, terrain.encoding, uv, sun, terrain.texel_size, terrain.scene.light.w);
 }
 
 // Sky visibility (1 - the baked occlusion) at texture coordinate uv; 1 without a map.
@@ -76,24 +74,19 @@ fn terrain_vs(@builtin(vertex_index) index: u32) -> TerrainVertex {
     var corners = array<vec2<u32>, 6>(vec2<u32>(0u, 0u), vec2<u32>(1u, 0u), vec2<u32>(0u, 1u), vec2<u32>(0u, 1u), vec2<u32>(1u, 0u), vec2<u32>(1u, 1u));
     let texel = vec2<i32>(vec2<u32>(quad % columns, quad / columns) + corners[index % 6u]);
     var out: TerrainVertex;
-    out.clip = terrain.view_proj * (terrain.model * vec4<f32>(terrain_position(texel), 1.0));
+    out.clip = terrain.scene.view_proj * (terrain.scene.model * vec4<f32>(terrain_position(texel), 1.0));
     out.uv = (vec2<f32>(texel) + 0.5) / vec2<f32>(terrain.size);
     out.normal = terrain_normal(texel);
     return out;
 }
 
-struct TerrainShade {
-    color: vec4<f32>,
-    // x: sun visibility, y: 1 (covered), z: sky visibility.
-    visibility: vec4<f32>,
-}
-
-fn terrain_shade(in: TerrainVertex) -> TerrainShade {
+// The terrain's shading; visibility x: sun visibility, y: 1 (covered), z: sky visibility.
+fn terrain_shade(in: TerrainVertex) -> Shade {
     let sun = terrain_sun_visibility(in.uv);
     let sky = terrain_sky_visibility(in.uv);
-    let lambert = max(dot(normalize(in.normal), terrain.sun.xyz), 0.0);
-    let light = terrain.sun_color.rgb * (lambert * sun) + terrain.sky_color.rgb * sky;
-    return TerrainShade(vec4<f32>(terrain.albedo.rgb * light, 1.0), vec4<f32>(sun, 1.0, sky, 1.0));
+    let lambert = max(dot(normalize(in.normal), terrain.scene.light.xyz), 0.0);
+    let light = terrain.scene.light_color.rgb * (lambert * sun) + terrain.scene.ambient.rgb * sky;
+    return Shade(vec4<f32>(terrain.scene.albedo.rgb * light, 1.0), vec4<f32>(sun, 1.0, sky, 1.0));
 }
 
 @fragment
@@ -101,13 +94,8 @@ fn terrain_fs(in: TerrainVertex) -> @location(0) vec4<f32> {
     return terrain_shade(in).color;
 }
 
-struct TerrainTargets {
-    @location(0) color: vec4<f32>,
-    @location(1) visibility: vec4<f32>,
-}
-
 @fragment
-fn terrain_fs_visibility(in: TerrainVertex) -> TerrainTargets {
+fn terrain_fs_visibility(in: TerrainVertex) -> ShadeTargets {
     let s = terrain_shade(in);
-    return TerrainTargets(s.color, s.visibility);
+    return ShadeTargets(s.color, s.visibility);
 }
