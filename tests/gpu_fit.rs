@@ -30,7 +30,7 @@ fn shadow_fit_scene_sigma_matches_the_cpu() {
         ..FitOptions::new(scene.bounds)
     };
     let fit = shadow_fit::fit(light, &camera, &[scene.mesh()], &options, &mut Scratch::default());
-    let psm = FitOptions { psm: true, ..options };
+    let psm = FitOptions { space: shadow_fit::FitSpace::PostPerspective(shadow_fit::PullBack::Balanced), ..options };
     let psm = shadow_fit::fit(light, &camera, &[scene.mesh()], &psm, &mut Scratch::default());
     let mut medians = Vec::new();
     for light_matrix in [shadow_fit::fixed(light, &options), fit.view_proj, psm.view_proj] {

@@ -9,10 +9,8 @@ use hikage_bundle::MeshData;
 use hikage_runtime::glam::camera::rh::proj::directx;
 use hikage_runtime::glam::camera::rh::view::look_at_mat4;
 use hikage_runtime::glam::{Mat4, Vec2, Vec3, Vec4};
-use hikage_runtime::horizon::{
-    HorizonMap, Sun, SurfaceFrame, SurfaceReference, SurfaceShadows, TerrainFrame, TerrainShadows, horizon_filterable,
-    horizon_sun_visible,
-};
+use hikage_runtime::horizon::reference::{HorizonMap, SurfaceReference, horizon_sun_visible};
+use hikage_runtime::horizon::{Sun, SurfaceFrame, SurfaceShadows, TerrainFrame, TerrainShadows, horizon_filterable};
 use hikage_runtime::{CpuBundle, DrawOptions, GpuBundle, wgpu};
 use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT, Headless, VISIBILITY_FORMAT};
 use hikage_scenes::horizon_sphere::{AnalyticSphere, shadowed_fraction};

@@ -114,7 +114,8 @@ fn direction_rules_pick_the_same_layer_on_gpu_and_cpu() {
 #[test]
 fn relief_quad_render_matches_the_cpu_tracers() {
     use hikage_runtime::glam::Vec3;
-    use hikage_runtime::relief::{DirectionRule, Reads, ReliefMaps, Tracer, VisibilityPath};
+    use hikage_runtime::relief::reference::{Reads, ReliefMaps};
+    use hikage_runtime::relief::{DirectionRule, Tracer, VisibilityPath};
     use hikage_scenes::relief_plane::{PlaneView, SHADOW_BIAS, camera_ray, render};
 
     let dir = Dir::new("gpu_relief");
@@ -194,9 +195,8 @@ fn relief_quad_render_matches_the_cpu_tracers() {
 #[test]
 fn relief_material_on_a_curved_mesh_matches_the_cpu() {
     use hikage_runtime::glam::{Vec2, Vec3, Vec4};
-    use hikage_runtime::relief::{
-        ReliefFrame, ReliefMaps, ReliefMaterial, ReliefMaterialUniform, Tracer, relief_material_shade,
-    };
+    use hikage_runtime::relief::reference::{ReliefMaps, relief_material_shade};
+    use hikage_runtime::relief::{ReliefFrame, ReliefMaterial, ReliefMaterialUniform, Tracer};
     use hikage_runtime::wgpu;
     use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT, VISIBILITY_FORMAT};
     use hikage_scenes::horizon_sphere::AnalyticSphere;

@@ -4,7 +4,9 @@
 use hikage_runtime::glam::Vec3;
 use hikage_runtime::glam::camera::rh::proj::directx;
 use hikage_runtime::glam::camera::rh::view::look_at_mat4;
-use hikage_runtime::shadow_fit::{self, Camera, FitOptions, Light, Scratch};
+use hikage_runtime::shadow_fit::{
+    self, Camera, FitOptions, FitSpace, FitTarget, Light, PullBack, Scratch, Snap, VisibleTest,
+};
 use hikage_scenes::shadow_scene::{Projection, Scene, cpu_times};
 
 use crate::best_of;
@@ -29,10 +31,10 @@ pub fn run() {
     let mesh = [scene.mesh()];
     let mut scratch = Scratch::default();
     let variants = [
-        ("seed's vertex test only", FitOptions { vertex_test_only: true, ..base }),
+        ("seed's vertex test only", FitOptions { target: FitTarget::Visible(VisibleTest::VerticesOnly), ..base }),
         ("vertices + triangle clipping", base),
-        ("+ snapping", FitOptions { snap: true, ..base }),
-        ("+ PSM (casters, pull-back)", FitOptions { psm: true, ..base }),
+        ("+ snapping", FitOptions { snap: Snap::TexelGrid, ..base }),
+        ("+ PSM (casters, pull-back)", FitOptions { space: FitSpace::PostPerspective(PullBack::Balanced), ..base }),
     ];
     for (name, o) in variants {
         let (t, fit) = best_of(20, || shadow_fit::fit(light, &camera, &mesh, &o, &mut scratch));

@@ -9,7 +9,8 @@ use hikage_bake::relief::{self, ReliefFormat, ReliefParams};
 use hikage_bundle::relief::{MaxMip, ReliefRay, first_hit_maxmip};
 use hikage_devkit::brute_force;
 use hikage_devkit::synth;
-use hikage_runtime::relief::{DirectionRule, Reads, ReliefMaps, Tracer, VisibilityPath, fine_march};
+use hikage_runtime::relief::reference::{Reads, ReliefMaps, fine_march};
+use hikage_runtime::relief::{DirectionRule, Tracer, VisibilityPath};
 use rayon::prelude::*;
 
 use crate::best_of;

@@ -13,7 +13,8 @@
 use hikage_runtime::glam::camera::rh::proj::directx;
 use hikage_runtime::glam::camera::rh::view::look_at_mat4;
 use hikage_runtime::glam::{Mat4, Vec3};
-use hikage_runtime::horizon::{SurfaceFrame, SurfaceReference, SurfaceShadows, horizon_filterable};
+use hikage_runtime::horizon::reference::SurfaceReference;
+use hikage_runtime::horizon::{SurfaceFrame, SurfaceShadows, horizon_filterable};
 use hikage_runtime::{DrawOptions, wgpu};
 use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT, Frame, Headless, VISIBILITY_FORMAT};
 use hikage_scenes::horizon_sphere::{AnalyticSphere, shadowed_fraction};

@@ -10,7 +10,8 @@
 //! ```
 
 use hikage_runtime::glam::Vec3;
-use hikage_runtime::relief::{ReliefMaps, Tracer};
+use hikage_runtime::relief::Tracer;
+use hikage_runtime::relief::reference::ReliefMaps;
 use hikage_scenes::relief_plane::{PlaneView, render};
 
 /// Blue → green → yellow → red over `[0, 1]`.

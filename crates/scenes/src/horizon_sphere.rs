@@ -7,7 +7,7 @@
 use glam::camera::rh::proj::directx;
 use glam::camera::rh::view::look_at_mat4;
 use glam::{Mat4, Vec2, Vec3};
-use hikage_runtime::horizon::SurfaceReference;
+use hikage_runtime::horizon::reference::SurfaceReference;
 
 /// A sphere and its texture mapping.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -8,7 +8,8 @@ use glam::Vec3;
 use hikage_bundle::relief::ReliefRay;
 
 use crate::headless::{Headless, clear_attachment, plain_target, render_pipeline};
-use hikage_runtime::relief::{ReliefMaps, Tracer};
+use hikage_runtime::relief::Tracer;
+use hikage_runtime::relief::reference::ReliefMaps;
 
 /// WGSL of the scene; prepend [`hikage_runtime::relief::RELIEF_WGSL`] and append
 /// [`crate::headless::FULLSCREEN_WGSL`].

@@ -8,7 +8,9 @@
 use glam::{Mat4, Vec3, Vec4};
 
 use crate::headless::{Headless, clear_attachment, depth_attachment, depth_test, plain_target, render_pipeline};
-use hikage_runtime::shadow_fit::{self, Camera, Fit, FitOptions, Light, MeshRef, Scratch, Sphere};
+use hikage_runtime::shadow_fit::{
+    self, Camera, Fit, FitOptions, FitSpace, FitTarget, Light, MeshRef, PullBack, Scratch, Snap, Sphere,
+};
 
 /// WGSL of the two passes.
 pub const SCENE_WGSL: &str = include_str!("shaders/shadow_scene.wgsl");
@@ -166,11 +168,17 @@ impl Projection {
     ) -> (Mat4, Option<Fit>) {
         let options = match self {
             Projection::Sm => return (shadow_fit::fixed(light, base), None),
-            Projection::Psm => FitOptions { psm: true, to_visible: false, ..*base },
+            Projection::Psm => FitOptions {
+                space: FitSpace::PostPerspective(PullBack::Balanced),
+                target: FitTarget::ViewFrustum,
+                ..*base
+            },
             Projection::SmFit => *base,
-            Projection::SmFitSnapped => FitOptions { snap: true, ..*base },
-            Projection::PsmFitCasters => FitOptions { psm: true, psm_balance: false, ..*base },
-            Projection::PsmFit => FitOptions { psm: true, ..*base },
+            Projection::SmFitSnapped => FitOptions { snap: Snap::TexelGrid, ..*base },
+            Projection::PsmFitCasters => {
+                FitOptions { space: FitSpace::PostPerspective(PullBack::CastersOnly), ..*base }
+            }
+            Projection::PsmFit => FitOptions { space: FitSpace::PostPerspective(PullBack::Balanced), ..*base },
         };
         let f = shadow_fit::fit(light, camera, meshes, &options, scratch);
         (f.view_proj, Some(f))

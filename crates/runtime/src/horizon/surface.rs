@@ -2,18 +2,14 @@
 //! mesh's curvature (seed 000 §3, the whole method), and [`SurfaceReference`], its CPU
 //! reference.
 
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat4, Vec3};
 use hikage_bundle::{ComponentType, MeshDesc};
 
 use super::terrain::{heightfield_settings, horizon_settings};
-use super::{
-    HORIZON_WGSL, HorizonEncoding, HorizonMap, horizon_filterable, horizon_sampler, horizon_surface_light,
-    horizon_surface_lit,
-};
+use super::{HORIZON_WGSL, HorizonEncoding, horizon_filterable, horizon_sampler};
 use crate::draw::DrawOptions;
 use crate::error::RuntimeError;
 use crate::gpu;
-use crate::load::CpuBundle;
 use crate::scene::SceneUniform;
 use crate::upload::{GpuBundle, GpuMesh};
 
@@ -276,65 +272,5 @@ fn check_streams(mesh: &GpuMesh) -> Result<(), RuntimeError> {
     match &mesh.desc.indices {
         Some(ix) if matches!(ix.component, ComponentType::U16 | ComponentType::U32) => Ok(()),
         _ => Err(bad("a surface needs U16 or U32 triangle indices".into())),
-    }
-}
-
-/// The CPU reference of [`SurfaceShadows`]' lit test: the same math per pixel on the same
-/// maps, for tests and for tools that want the shadow without a device.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SurfaceReference {
-    map: HorizonMap,
-    heights: Vec<f32>,
-    size: (usize, usize),
-    statics: SurfaceUniform,
-}
-
-impl SurfaceReference {
-    /// The reference for the bump map of `horizon` in `cpu` (which must hold its heightfield
-    /// too); `filtered` as [`super::horizon_filterable`] says for the device compared with.
-    pub fn new(cpu: &CpuBundle, horizon: &str, filtered: bool) -> Result<SurfaceReference, RuntimeError> {
-        let missing = |id: &str| RuntimeError::Asset { asset: id.to_string(), message: "not read".into() };
-        let map_asset = cpu.asset(horizon).ok_or_else(|| missing(horizon))?;
-        let settings = map_asset.asset.settings.horizon().ok_or_else(|| missing(horizon))?;
-        let texture = map_asset.texture().ok_or_else(|| missing(horizon))?;
-        let heights_asset = cpu.asset(&settings.heightfield).ok_or_else(|| missing(&settings.heightfield))?;
-        let hf = heights_asset.asset.settings.heightfield().ok_or_else(|| missing(&settings.heightfield))?;
-        let heights = heights_asset.texture().ok_or_else(|| missing(&settings.heightfield))?;
-        let map = HorizonMap::new(texture, settings, filtered).ok_or_else(|| missing(horizon))?;
-        let (w, h) = (heights.desc.width, heights.desc.height);
-        let (sx, sy) = settings.texel_size;
-        let statics = SurfaceUniform {
-            tile: [w as f32 * sx, h as f32 * sy],
-            texel_size: [sx, sy],
-            height_scale: hf.height_scale,
-            height_offset: hf.height_offset,
-            size: [w, h],
-            ..bytemuck::Zeroable::zeroed()
-        };
-        Ok(SurfaceReference { map, heights: heights.to_f32(0), size: (w as usize, h as usize), statics })
-    }
-
-    /// `surface_lit` of the WGSL: is the point lit by `light` (mesh space, unit)? The other
-    /// arguments are the Curvature asset's streams interpolated at the point.
-    #[allow(clippy::too_many_arguments)]
-    pub fn lit(
-        &self,
-        light: Vec3,
-        corrected: bool,
-        uv: Vec2,
-        normal: Vec3,
-        k: Vec2,
-        d1: Vec2,
-        d2: Vec2,
-        pu: Vec3,
-        pv: Vec3,
-    ) -> bool {
-        let tile = Vec2::from(self.statics.tile);
-        let s = horizon_surface_light(light, pu, pv, normal, k.x, k.y, d1, d2, tile);
-        let f = uv - uv.floor();
-        let (w, h) = self.size;
-        let (i, j) = (((f.x * w as f32).floor() as usize).min(w - 1), ((f.y * h as f32).floor() as usize).min(h - 1));
-        let height = self.statics.height_offset + self.statics.height_scale * self.heights[j * w + i];
-        horizon_surface_lit(&self.map, uv, s, height, Vec2::from(self.statics.texel_size), corrected)
     }
 }

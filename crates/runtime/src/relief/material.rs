@@ -1,9 +1,9 @@
 //! [`ReliefMaterial`]: relief mapping with depth-map shadows and ambient occlusion on any mesh
-//! with tangents, and [`relief_material_shade`], its CPU reference.
+//! with tangents (its CPU reference is [`super::reference::relief_material_shade`]).
 
-use glam::{Mat4, Vec2, Vec3, Vec4};
+use glam::{Mat4, Vec2, Vec3};
 
-use super::{RELIEF_WGSL, Reads, ReliefMaps, ReliefUniform, Tracer, VisibilityPath};
+use super::{RELIEF_WGSL, ReliefUniform, Tracer, VisibilityPath};
 use crate::draw::DrawOptions;
 use crate::error::RuntimeError;
 use crate::gpu;
@@ -271,60 +271,4 @@ impl ReliefMaterial {
         pass.set_index_buffer(indices, wgpu::IndexFormat::Uint32);
         pass.draw_indexed(0..count, 0, 0..1);
     }
-}
-
-/// What the material computes at one pixel, from [`relief_material_shade`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ReliefPixel {
-    /// The view ray's hit, its length in texels (`None`: viewed from below the surface).
-    pub s: Option<f32>,
-    /// The hit's depth (0 top, 1 bottom).
-    pub depth: f32,
-    /// Lit by the light.
-    pub lit: bool,
-    /// Ambient occlusion's open share.
-    pub ao: f32,
-}
-
-/// The CPU reference of `relief_material_shade`: the material at a point of the mesh (world
-/// position, interpolated normal, tangent and uv) with `maps` and the material uniform. The
-/// maps' `rule` and `visibility` stand for the frame's.
-pub fn relief_material_shade(
-    maps: &ReliefMaps,
-    tracer: Tracer,
-    material: &ReliefMaterialUniform,
-    world: Vec3,
-    normal: Vec3,
-    tangent: Vec4,
-    uv: Vec2,
-) -> ReliefPixel {
-    let n = normal.normalize();
-    let t = (tangent.truncate() - n * tangent.truncate().dot(n)).normalize();
-    let b = tangent.w * n.cross(t);
-    let eye = Vec4::from(material.eye);
-    let d = if eye.w > 0.5 { (world - eye.truncate()).normalize() } else { eye.truncate() };
-    let size = Vec2::new(maps.max_mip.width() as f32, maps.max_mip.height() as f32);
-    let tile = Vec2::from(material.tile);
-    let scale = Vec3::new(size.x / tile.x, size.y / tile.y, size.x / tile.x);
-    let dir = (Vec3::new(d.dot(t), d.dot(b), -d.dot(n)) * scale).normalize();
-    if dir.z <= 1e-4 {
-        return ReliefPixel { s: None, depth: 0.0, lit: false, ao: 1.0 };
-    }
-    let origin = uv * size;
-    let ray = maps.ray(origin.to_array(), dir.to_array());
-    let mut reads = Reads::default();
-    let s = maps.trace(tracer, &ray, &mut reads);
-    let p = [origin.x + s * dir.x, origin.y + s * dir.y, s * ray.dz()];
-    let l = Vec3::from_slice(&material.scene.light[..3]);
-    let lt = (Vec3::new(l.dot(t), l.dot(b), l.dot(n)) * scale).normalize();
-    let mut lit = lt.z > 0.0;
-    if material.shadows == 1 && lit {
-        lit = maps.lit(p, lt.to_array(), material.bias, &mut reads);
-    }
-    let ao = if material.ao_stride > 0 {
-        maps.ambient_occlusion(p, material.ao_stride, material.bias, &mut reads)
-    } else {
-        1.0
-    };
-    ReliefPixel { s: Some(s), depth: p[2], lit, ao }
 }
