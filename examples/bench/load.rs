@@ -69,8 +69,8 @@ fn row(name: &str, dir: &Path) {
         .assets
         .iter()
         .map(|a| match &a.payload {
-            hikage_runtime::CpuPayload::Texture(t) => t.levels.iter().map(Vec::len).sum(),
-            hikage_runtime::CpuPayload::Mesh(m) => m.bytes.len(),
+            hikage_runtime::PayloadData::Texture(t) => t.levels.iter().map(Vec::len).sum(),
+            hikage_runtime::PayloadData::Mesh(m) => m.bytes.len(),
         })
         .sum();
     let mib = |b: f64| b / (1024.0 * 1024.0);

@@ -44,8 +44,9 @@ pub use bundle::{Bundle, READERS_LOCK_FILE};
 pub use error::BundleError;
 pub use limits::Limits;
 pub use manifest::{
-    AmbientOcclusionSettings, Asset, AssetKind, CurvatureSettings, EdgeMode, HeightfieldSettings, HorizonSettings,
-    MANIFEST_FILE, Manifest, MaxMipSettings, Payload, ReliefSettings, Settings, StrandsSettings, TilePlacement,
+    AmbientOcclusionSettings, Asset, AssetKind, CURVATURE_STREAMS, CurvatureSettings, EdgeMode, HeightfieldSettings,
+    HorizonSettings, MANIFEST_FILE, Manifest, MaxMipSettings, Payload, ReliefSettings, STRANDS_STREAMS, Settings,
+    StrandsSettings, Stream, TilePlacement,
 };
 pub use mesh::{Accessor, ComponentType, MeshData, MeshDesc};
 pub use names::{check_asset_id, is_valid_asset_id, payload_file_name};

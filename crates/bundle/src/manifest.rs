@@ -74,13 +74,20 @@ impl AssetKind {
         matches!(self, AssetKind::Curvature | AssetKind::Strands | AssetKind::Mesh)
     }
 
-    /// The vertex streams a mesh of this kind must have (see each kind's description).
-    pub fn required_streams(self) -> &'static [&'static str] {
+    /// The vertex streams a mesh of this kind is written with, in payload order: the one table
+    /// every writer and reader of the kind takes its names and layouts from.
+    pub fn streams(self) -> &'static [Stream] {
         match self {
-            AssetKind::Curvature => &["position", "uv", "normal", "curvature", "principal1", "principal2"],
-            AssetKind::Strands => &["position", "side", "tangent", "param", "width", "opacity", "color"],
+            AssetKind::Curvature => &CURVATURE_STREAMS,
+            AssetKind::Strands => &STRANDS_STREAMS,
             _ => &[],
         }
+    }
+
+    /// The names of the streams a mesh of this kind must have (a `Curvature` mesh from before
+    /// format 1.3 has no `tangent_u` and `tangent_v`).
+    pub fn required_streams(self) -> impl Iterator<Item = &'static str> {
+        self.streams().iter().filter(|s| s.since <= (1, 0)).map(|s| s.name)
     }
 
     /// Lower-case name used by the CLI and JSON output.
@@ -98,6 +105,44 @@ impl AssetKind {
         }
     }
 }
+
+/// A vertex stream of a kind's meshes: F32 values, `components` per vertex.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Stream {
+    /// The accessor's name in the manifest.
+    pub name: &'static str,
+    /// F32 components per vertex.
+    pub components: u8,
+    /// The format version that added it (older bundles may lack it).
+    pub since: (u16, u16),
+}
+
+const fn stream(name: &'static str, components: u8) -> Stream {
+    Stream { name, components, since: (1, 0) }
+}
+
+/// The streams of a `Curvature` mesh ([`AssetKind::Curvature`]), in payload order.
+pub const CURVATURE_STREAMS: [Stream; 8] = [
+    stream("position", 3),
+    stream("uv", 2),
+    stream("normal", 3),
+    stream("curvature", 2),
+    stream("principal1", 2),
+    stream("principal2", 2),
+    Stream { since: (1, 3), ..stream("tangent_u", 3) },
+    Stream { since: (1, 3), ..stream("tangent_v", 3) },
+];
+
+/// The streams of a `Strands` mesh ([`AssetKind::Strands`]), in payload order.
+pub const STRANDS_STREAMS: [Stream; 7] = [
+    stream("position", 3),
+    stream("side", 1),
+    stream("tangent", 3),
+    stream("param", 1),
+    stream("width", 2),
+    stream("opacity", 2),
+    stream("color", 3),
+];
 
 /// One payload file and everything needed to trust and use it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -12,21 +12,12 @@ use std::path::Path;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use hikage_bundle::{Asset, Bundle, BundleError, MeshData, Payload, TextureData};
+use hikage_bundle::{Asset, Bundle, BundleError, MeshData, Payload, PayloadData, TextureData};
 
 use crate::error::RuntimeError;
 
 /// Attempts at reading a consistent bundle while writers replace it.
 const ATTEMPTS: usize = 4;
-
-/// A decoded payload.
-#[derive(Clone, Debug, PartialEq)]
-pub enum CpuPayload {
-    /// Uncompressed texture levels.
-    Texture(TextureData),
-    /// A mesh buffer with its accessors.
-    Mesh(MeshData),
-}
 
 /// One asset in memory: its manifest entry and decoded payload.
 #[derive(Clone, Debug, PartialEq)]
@@ -34,24 +25,18 @@ pub struct CpuAsset {
     /// The manifest entry (id, kind, settings, hashes).
     pub asset: Asset,
     /// The decoded payload.
-    pub payload: CpuPayload,
+    pub payload: PayloadData,
 }
 
 impl CpuAsset {
     /// The texture, when the payload is one.
     pub fn texture(&self) -> Option<&TextureData> {
-        match &self.payload {
-            CpuPayload::Texture(t) => Some(t),
-            CpuPayload::Mesh(_) => None,
-        }
+        self.payload.texture()
     }
 
     /// The mesh, when the payload is one.
     pub fn mesh(&self) -> Option<&MeshData> {
-        match &self.payload {
-            CpuPayload::Mesh(m) => Some(m),
-            CpuPayload::Texture(_) => None,
-        }
+        self.payload.mesh()
     }
 }
 
@@ -261,8 +246,8 @@ fn vanished(e: &BundleError) -> bool {
 fn read_assets(bundle: &Bundle, assets: &[&Asset]) -> Result<Vec<CpuAsset>, BundleError> {
     let read = |a: &Asset| -> Result<CpuAsset, BundleError> {
         let payload = match &a.payload {
-            Payload::Texture(_) => CpuPayload::Texture(bundle.read_texture(&a.id)?),
-            Payload::Mesh(_) => CpuPayload::Mesh(bundle.read_mesh(&a.id)?),
+            Payload::Texture(_) => PayloadData::Texture(bundle.read_texture(&a.id)?),
+            Payload::Mesh(_) => PayloadData::Mesh(bundle.read_mesh(&a.id)?),
         };
         Ok(CpuAsset { asset: a.clone(), payload })
     };

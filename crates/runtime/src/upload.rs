@@ -2,10 +2,10 @@
 
 use std::collections::BTreeMap;
 
-use hikage_bundle::{Asset, MeshDesc, TextureData, TextureDesc, TextureDimension, TextureFormat};
+use hikage_bundle::{Asset, MeshDesc, PayloadData, TextureData, TextureDesc, TextureDimension, TextureFormat};
 
 use crate::error::RuntimeError;
-use crate::load::{CpuBundle, CpuPayload};
+use crate::load::CpuBundle;
 
 /// The wgpu format of a bundle texture format.
 pub fn wgpu_format(format: TextureFormat) -> wgpu::TextureFormat {
@@ -95,12 +95,12 @@ impl GpuBundle {
         a: &crate::load::CpuAsset,
     ) -> Result<(), RuntimeError> {
         match &a.payload {
-            CpuPayload::Texture(t) => {
+            PayloadData::Texture(t) => {
                 let gpu = upload_texture(device, queue, &a.asset, t)?;
                 self.meshes.remove(&a.asset.id);
                 self.textures.insert(a.asset.id.clone(), gpu);
             }
-            CpuPayload::Mesh(m) => {
+            PayloadData::Mesh(m) => {
                 let gpu = upload_mesh(device, queue, &a.asset, &m.desc, &m.bytes)?;
                 self.textures.remove(&a.asset.id);
                 self.meshes.insert(a.asset.id.clone(), gpu);

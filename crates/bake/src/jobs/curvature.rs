@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use hikage_bundle::{CurvatureSettings, MeshData, Settings};
+use hikage_bundle::{CURVATURE_STREAMS, CurvatureSettings, MeshData, Settings};
 use serde::{Deserialize, Serialize};
 
 use super::{BakedAsset, Baker, JobContext};
@@ -79,15 +79,21 @@ impl Baker for CurvatureJob {
         let n = mesh.vertex_uv.len();
         let mut data = MeshData::new(n as u32);
         let flat = |f: &dyn Fn(usize) -> Vec<f32>| (0..n).flat_map(f).collect::<Vec<f32>>();
-        let position = flat(&|v| mesh.positions[mesh.vertex_position[v] as usize].as_vec3().to_array().to_vec());
-        data.push_f32("position", 3, &position)?;
-        data.push_f32("uv", 2, &flat(&|v| mesh.vertex_uv[v].as_vec2().to_array().to_vec()))?;
-        data.push_f32("normal", 3, &flat(&|v| c[v].normal.as_vec3().to_array().to_vec()))?;
-        data.push_f32("curvature", 2, &flat(&|v| vec![c[v].k1 as f32, c[v].k2 as f32]))?;
-        data.push_f32("principal1", 2, &flat(&|v| c[v].dir1_uv.as_vec2().to_array().to_vec()))?;
-        data.push_f32("principal2", 2, &flat(&|v| c[v].dir2_uv.as_vec2().to_array().to_vec()))?;
-        data.push_f32("tangent_u", 3, &flat(&|v| c[v].pu.as_vec3().to_array().to_vec()))?;
-        data.push_f32("tangent_v", 3, &flat(&|v| c[v].pv.as_vec3().to_array().to_vec()))?;
+        let v3 = |v: glam::DVec3| v.as_vec3().to_array().to_vec();
+        let v2 = |v: glam::DVec2| v.as_vec2().to_array().to_vec();
+        for stream in CURVATURE_STREAMS {
+            let values = match stream.name {
+                "position" => flat(&|v| v3(mesh.positions[mesh.vertex_position[v] as usize])),
+                "uv" => flat(&|v| v2(mesh.vertex_uv[v])),
+                "normal" => flat(&|v| v3(c[v].normal)),
+                "curvature" => flat(&|v| vec![c[v].k1 as f32, c[v].k2 as f32]),
+                "principal1" => flat(&|v| v2(c[v].dir1_uv)),
+                "principal2" => flat(&|v| v2(c[v].dir2_uv)),
+                "tangent_u" => flat(&|v| v3(c[v].pu)),
+                _ => flat(&|v| v3(c[v].pv)),
+            };
+            data.push_f32(stream.name, stream.components, &values)?;
+        }
         let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
         data.set_indices(&indices)?;
         (ctx.progress)(1, 1);

@@ -10,7 +10,7 @@
 //! thread count), so peak memory stays near the output's size.
 
 use glam::Vec3;
-use hikage_bundle::{Accessor, ComponentType, MeshData, MeshDesc};
+use hikage_bundle::{Accessor, ComponentType, MeshData, MeshDesc, STRANDS_STREAMS, Stream};
 use rayon::prelude::*;
 
 use super::Strands;
@@ -41,10 +41,6 @@ impl StripSets {
         StripSets { shading, opacity: (shading.0 * PAPER_WIDTH_RATIO, shading.1 * PAPER_ALPHA_RATIO), taper: 0.0 }
     }
 }
-
-/// Floats per vertex in each stream, in payload order.
-const STREAMS: [(&str, u8); 7] =
-    [("position", 3), ("side", 1), ("tangent", 3), ("param", 1), ("width", 2), ("opacity", 2), ("color", 3)];
 
 /// Points per parallel chunk.
 const CHUNK: usize = 4096;
@@ -104,7 +100,7 @@ pub fn build(s: &Strands, sets: &StripSets) -> (MeshData, [f32; 3], [f32; 3]) {
     // Layout: the streams one after another (each 4-byte aligned), then the indices.
     let mut attributes = Vec::new();
     let mut offset = 0u64;
-    for (name, c) in STREAMS {
+    for &Stream { name, components: c, .. } in &STRANDS_STREAMS {
         attributes.push(Accessor {
             name: name.into(),
             offset,
@@ -128,7 +124,7 @@ pub fn build(s: &Strands, sets: &StripSets) -> (MeshData, [f32; 3], [f32; 3]) {
     let (thick_ref, alpha_ref) = (s.default_thickness, 1.0 - s.default_transparency);
     let ratio = |v: f32, r: f32| if r > 0.0 { v / r } else { 1.0 };
     let (mut rest, index_bytes) = bytes.split_at_mut(offset as usize);
-    for (stream_index, (_, c)) in STREAMS.into_iter().enumerate() {
+    for (stream_index, &Stream { components: c, .. }) in STRANDS_STREAMS.iter().enumerate() {
         let (stream, tail) = rest.split_at_mut(vertices * 4 * c as usize);
         rest = tail;
         let per_point = 2 * 4 * c as usize;

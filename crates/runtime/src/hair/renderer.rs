@@ -10,15 +10,19 @@ use crate::error::RuntimeError;
 use crate::gpu;
 use crate::upload::GpuBundle;
 
-/// The strands mesh's streams, in shader location order.
-const STREAMS: [(&str, wgpu::VertexFormat); 6] = [
-    ("position", wgpu::VertexFormat::Float32x3),
-    ("side", wgpu::VertexFormat::Float32),
-    ("tangent", wgpu::VertexFormat::Float32x3),
-    ("width", wgpu::VertexFormat::Float32x2),
-    ("opacity", wgpu::VertexFormat::Float32x2),
-    ("color", wgpu::VertexFormat::Float32x3),
-];
+/// The strands mesh's streams the shaders read, in shader location order, by their names in
+/// the one table of the kind ([`hikage_bundle::STRANDS_STREAMS`]).
+const STREAMS: [(&str, wgpu::VertexFormat); 6] = {
+    let s = hikage_bundle::STRANDS_STREAMS;
+    [
+        (s[0].name, wgpu::VertexFormat::Float32x3),
+        (s[1].name, wgpu::VertexFormat::Float32),
+        (s[2].name, wgpu::VertexFormat::Float32x3),
+        (s[4].name, wgpu::VertexFormat::Float32x2),
+        (s[5].name, wgpu::VertexFormat::Float32x2),
+        (s[6].name, wgpu::VertexFormat::Float32x3),
+    ]
+};
 
 const DEPTH_MAP: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 const LAYERS: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;

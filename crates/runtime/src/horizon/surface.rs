@@ -15,18 +15,8 @@ use crate::upload::{GpuBundle, GpuMesh};
 
 const SURFACE_WGSL: &str = include_str!("../shaders/surface.wgsl");
 
-/// The Curvature asset's streams the surface draws with, in shader location order, with their
-/// component counts.
-const STREAMS: [(&str, u8); 8] = [
-    ("position", 3),
-    ("uv", 2),
-    ("normal", 3),
-    ("curvature", 2),
-    ("principal1", 2),
-    ("principal2", 2),
-    ("tangent_u", 3),
-    ("tangent_v", 3),
-];
+/// The Curvature asset's streams the surface draws with, in shader location order: all of them.
+const STREAMS: [hikage_bundle::Stream; 8] = hikage_bundle::CURVATURE_STREAMS;
 
 /// What changes from frame to frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -167,16 +157,17 @@ impl SurfaceShadows {
         let attributes: Vec<[wgpu::VertexAttribute; 1]> = STREAMS
             .iter()
             .enumerate()
-            .map(|(location, &(_, c))| {
-                [wgpu::VertexAttribute { format: float_format(c), offset: 0, shader_location: location as u32 }]
+            .map(|(location, stream)| {
+                let format = float_format(stream.components);
+                [wgpu::VertexAttribute { format, offset: 0, shader_location: location as u32 }]
             })
             .collect();
         let buffers: Vec<Option<wgpu::VertexBufferLayout>> = STREAMS
             .iter()
             .zip(&attributes)
-            .map(|(&(_, c), a)| {
+            .map(|(stream, a)| {
                 Some(wgpu::VertexBufferLayout {
-                    array_stride: 4 * c as u64,
+                    array_stride: 4 * stream.components as u64,
                     step_mode: wgpu::VertexStepMode::Vertex,
                     attributes: a,
                 })
@@ -228,8 +219,8 @@ impl SurfaceShadows {
     /// The visibility target receives `(1 lit / 0 shadowed, 1, 0, 1)`.
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>) {
         self.program.bind(pass);
-        for (slot, (name, _)) in STREAMS.iter().enumerate() {
-            let a = self.desc.attribute(name).expect("checked when the surface was built");
+        for (slot, stream) in STREAMS.iter().enumerate() {
+            let a = self.desc.attribute(stream.name).expect("checked when the surface was built");
             pass.set_vertex_buffer(
                 slot as u32,
                 self.buffer.slice(a.offset..a.offset + a.stride as u64 * a.count as u64),
@@ -259,7 +250,7 @@ fn float_format(components: u8) -> wgpu::VertexFormat {
 /// components, and the mesh has U16 or U32 indices.
 fn check_streams(mesh: &GpuMesh) -> Result<(), RuntimeError> {
     let bad = |message: String| RuntimeError::Asset { asset: mesh.asset.id.clone(), message };
-    for (name, c) in STREAMS {
+    for hikage_bundle::Stream { name, components: c, .. } in STREAMS {
         let a = mesh.desc.attribute(name).ok_or_else(|| {
             bad(format!(
                 "no `{name}` stream: a surface needs a curvature mesh of bundle format 1.3 or later (re-bake it)"
