@@ -381,3 +381,31 @@ fn clamped_terrain_is_sampled_without_wrap() {
     eprintln!("clamp: {edges_differ} rows where the left and right edges differ by more than 0.2; worst {worst}");
     assert!(edges_differ > 50, "the test needs rows whose edges differ");
 }
+
+/// What a game reads off a terrain to place a camera, against the baked heights read on the
+/// CPU; and an occlusion id naming the wrong kind of asset refused by that id.
+#[test]
+fn terrain_extent_and_a_wrong_occlusion_map_are_named() {
+    let dir = bundle();
+    let cpu = CpuBundle::read_prefix(&dir, "terrain.").unwrap();
+    let heights = cpu.asset("terrain.height").unwrap().texture().unwrap().to_f32(0);
+    let (lo, hi) = heights.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+    let Some(g) = gpu("terrain_extent_and_a_wrong_occlusion_map_are_named") else { return };
+    let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
+    let options = DrawOptions::new(COLOR_FORMAT);
+    let terrain =
+        TerrainShadows::new(&g.device, &g.queue, &gb, "terrain.horizon", Some("terrain.ao"), &options).unwrap();
+    let e = terrain.extent();
+    assert_eq!((e.size, e.texel_size), ((512, 512), (80.0, 60.0)));
+    assert_eq!(e.height_range, (1500.0 * lo, 1500.0 * hi));
+    assert_eq!(
+        (e.min, e.max),
+        (Vec3::new(40.0, 1500.0 * lo, 30.0), Vec3::new(511.5 * 80.0, 1500.0 * hi, 511.5 * 60.0))
+    );
+    assert_eq!(terrain.asset_ids(), ["terrain.horizon", "terrain.height", "terrain.ao"]);
+    for wrong in ["terrain.height", "terrain.horizon"] {
+        let err = TerrainShadows::new(&g.device, &g.queue, &gb, "terrain.horizon", Some(wrong), &options).unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.contains(&format!("`{wrong}`")) && msg.contains("expected an ambient_occlusion asset"), "{msg}");
+    }
+}

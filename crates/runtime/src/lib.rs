@@ -26,57 +26,66 @@
 //! Every shader has a CPU reference of the same name, which the tests compare with the GPU.
 //! The runtime never links the baker, and leaves wgpu's backends to the game.
 //!
-//! A frame of terrain:
+//! A terrain, set up once and drawn every frame:
 //!
 //! ```no_run
+//! use hikage_runtime::glam::camera::rh::{proj::directx, view::look_at_mat4};
 //! use hikage_runtime::horizon::{Sun, TerrainFrame, TerrainShadows};
-//! use hikage_runtime::{CpuBundle, DrawOptions, GpuBundle, glam::{Mat4, Vec3}, wgpu};
+//! use hikage_runtime::{CpuBundle, DrawOptions, GpuBundle, RuntimeError, glam::{Mat4, Vec3}, wgpu};
 //!
-//! fn frame(device: &wgpu::Device, queue: &wgpu::Queue, view_proj: Mat4) -> Result<(), hikage_runtime::RuntimeError> {
-//!     // Load (a loader thread could do the first line), upload, build the component.
-//!     let cpu = CpuBundle::read_prefix("bundle".as_ref(), "terrain.")?;
-//!     let gpu = GpuBundle::upload(device, queue, &cpu)?;
-//!     let format = wgpu::TextureFormat::Rgba8UnormSrgb;
-//!     let options = DrawOptions { depth_format: Some(wgpu::TextureFormat::Depth32Float), ..DrawOptions::new(format) };
-//!     let terrain = TerrainShadows::new(device, queue, &gpu, "terrain.horizon", Some("terrain.ao"), &options)?;
+//! const COLOR: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+//! const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 //!
-//!     // Targets of 640 × 360.
-//!     let size = wgpu::Extent3d { width: 640, height: 360, depth_or_array_layers: 1 };
-//!     let target = |format, usage| {
-//!         device.create_texture(&wgpu::TextureDescriptor {
-//!             label: None, size, mip_level_count: 1, sample_count: 1, dimension: wgpu::TextureDimension::D2,
-//!             format, usage, view_formats: &[],
-//!         })
-//!     };
-//!     let color = target(format, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC);
-//!     let depth = target(wgpu::TextureFormat::Depth32Float, wgpu::TextureUsages::RENDER_ATTACHMENT);
+//! struct Game {
+//!     terrain: TerrainShadows,
+//!     view_proj: Mat4,
+//! }
 //!
-//!     // The frame: the sun low in the west, the terrain drawn into the game's pass.
-//!     let sun = Sun { direction: Vec3::new(-0.9, 0.2, 0.1).normalize(), ..Sun::default() };
-//!     terrain.update(queue, &TerrainFrame { view_proj, sun, ..TerrainFrame::default() });
-//!     let (color_view, depth_view) = (color.create_view(&Default::default()), depth.create_view(&Default::default()));
-//!     let mut encoder = device.create_command_encoder(&Default::default());
-//!     {
-//!         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-//!             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-//!                 view: &color_view,
-//!                 depth_slice: None,
-//!                 resolve_target: None,
-//!                 ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
-//!             })],
-//!             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-//!                 view: &depth_view,
-//!                 depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
-//!                 stencil_ops: None,
-//!             }),
-//!             ..Default::default()
-//!         });
-//!         terrain.draw(&mut pass);
+//! impl Game {
+//!     /// Once: load (a loader thread could do the first line), upload, build the component, and
+//!     /// place a camera from the terrain's extent.
+//!     fn new(device: &wgpu::Device, queue: &wgpu::Queue, aspect: f32) -> Result<Game, RuntimeError> {
+//!         let cpu = CpuBundle::read_prefix("bundle".as_ref(), "terrain.")?;
+//!         let gpu = GpuBundle::upload(device, queue, &cpu)?;
+//!         let options = DrawOptions { depth_format: Some(DEPTH), ..DrawOptions::new(COLOR) };
+//!         let terrain = TerrainShadows::new(device, queue, &gpu, "terrain.horizon", Some("terrain.ao"), &options)?;
+//!         let (centre, radius) = (terrain.extent().centre(), terrain.extent().radius());
+//!         let eye = centre + Vec3::new(0.0, 0.8, 1.2) * radius;
+//!         let view = look_at_mat4(eye, centre, Vec3::Y);
+//!         let view_proj = directx::perspective(0.8, aspect, 0.01 * radius, 4.0 * radius) * view;
+//!         Ok(Game { terrain, view_proj })
 //!     }
-//!     queue.submit([encoder.finish()]);
-//!     Ok(())
+//!
+//!     /// Every frame: the sun, then the terrain drawn into the game's pass.
+//!     fn frame(&self, device: &wgpu::Device, queue: &wgpu::Queue, color: &wgpu::TextureView, depth: &wgpu::TextureView) {
+//!         let sun = Sun { direction: Vec3::new(-0.9, 0.2, 0.1).normalize(), ..Sun::default() };
+//!         self.terrain.update(queue, &TerrainFrame { view_proj: self.view_proj, sun, ..TerrainFrame::default() });
+//!         let mut encoder = device.create_command_encoder(&Default::default());
+//!         {
+//!             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+//!                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+//!                     view: color,
+//!                     depth_slice: None,
+//!                     resolve_target: None,
+//!                     ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+//!                 })],
+//!                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+//!                     view: depth,
+//!                     depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+//!                     stencil_ops: None,
+//!                 }),
+//!                 ..Default::default()
+//!             });
+//!             self.terrain.draw(&mut pass);
+//!         }
+//!         queue.submit([encoder.finish()]);
+//!     }
 //! }
 //! ```
+//!
+//! After an artist rebakes, [`CpuBundle::reload`] reads what changed, [`GpuBundle::apply`]
+//! uploads it, and [`Changes::touches`] says which components to build again (each lists its
+//! `asset_ids`).
 
 mod draw;
 mod error;

@@ -64,6 +64,26 @@ impl Changes {
     pub fn is_empty(&self) -> bool {
         self.changed.is_empty() && self.added.is_empty() && self.removed.is_empty()
     }
+
+    /// True when any of `ids` changed or went: a component built from them (see each
+    /// component's `asset_ids`) must be built again after [`crate::GpuBundle::apply`].
+    ///
+    /// ```no_run
+    /// # fn f(device: &wgpu::Device, queue: &wgpu::Queue, mut cpu: hikage_runtime::CpuBundle, mut gpu: hikage_runtime::GpuBundle, terrain: &mut hikage_runtime::horizon::TerrainShadows, options: &hikage_runtime::DrawOptions) -> Result<(), hikage_runtime::RuntimeError> {
+    /// use hikage_runtime::horizon::TerrainShadows;
+    /// let changes = cpu.reload()?;
+    /// gpu.apply(device, queue, &cpu, &changes)?;
+    /// if changes.touches(terrain.asset_ids()) {
+    ///     *terrain = TerrainShadows::new(device, queue, &gpu, "terrain.horizon", Some("terrain.ao"), options)?;
+    /// }
+    /// # Ok(()) }
+    /// ```
+    pub fn touches<S: AsRef<str>>(&self, ids: &[S]) -> bool {
+        ids.iter().any(|id| {
+            let id = id.as_ref();
+            self.changed.iter().chain(&self.removed).any(|c| c == id)
+        })
+    }
 }
 
 /// Assets read into memory, ready for [`crate::GpuBundle::upload`]. `Send`, so it can be built
@@ -221,7 +241,10 @@ fn resolve(bundle: &Bundle, selection: &Selection) -> Result<BTreeSet<String>, R
             if ids.is_empty() {
                 return Err(RuntimeError::Bundle(BundleError::Lookup {
                     path: bundle.dir().join(hikage_bundle::MANIFEST_FILE),
-                    message: format!("no asset id starts with `{prefix}`"),
+                    message: format!(
+                        "no asset id starts with `{prefix}`; the bundle has: {}",
+                        manifest.assets.iter().map(|a| a.id.as_str()).collect::<Vec<_>>().join(", ")
+                    ),
                 }));
             }
             ids

@@ -32,6 +32,9 @@ pub struct GpuTexture {
     pub texture: wgpu::Texture,
     /// A view of every level (and every layer, as an array, for `D2Array`).
     pub view: wgpu::TextureView,
+    /// The smallest and largest value of level 0 of a one-channel texture, as stored (for a
+    /// heightfield, the sample range its world heights follow from); `None` for other formats.
+    pub range: Option<(f32, f32)>,
 }
 
 /// A mesh buffer on the device.
@@ -212,7 +215,10 @@ fn upload_texture(
     if let Some(e) = block_on(scope.pop()) {
         return Err(RuntimeError::Wgpu { asset: asset.id.clone(), message: e.to_string() });
     }
-    Ok(GpuTexture { asset: asset.clone(), desc: d.clone(), texture, view })
+    let range = (d.format.channels() == 1 && d.levels >= 1).then(|| {
+        tex.channel_f32(0, 0).iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)))
+    });
+    Ok(GpuTexture { asset: asset.clone(), desc: d.clone(), texture, view, range })
 }
 
 fn upload_mesh(

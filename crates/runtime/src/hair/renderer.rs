@@ -198,6 +198,7 @@ impl HairOptions {
 /// ```
 #[derive(Debug)]
 pub struct HairRenderer {
+    assets: Vec<String>,
     wgsl: String,
     group: u32,
     resolution: u32,
@@ -325,6 +326,7 @@ impl HairRenderer {
         let (accum, revealage, composite_group) = frame_targets(device, &layouts.composite, options.size);
         let pipelines = gpu::checked(device, strips, || pipelines(device, &wgsl, &layouts, options))?;
         Ok(HairRenderer {
+            assets: vec![strips.to_string()],
             wgsl,
             group: options.draw.group,
             resolution,
@@ -351,6 +353,12 @@ impl HairRenderer {
     /// asset's settings): nothing outside the box is drawn into the maps.
     pub fn light(&self, to_light: Vec3) -> HairLight {
         HairLight::for_bounds(Vec3::from(self.settings.bounds_min), Vec3::from(self.settings.bounds_max), to_light)
+    }
+
+    /// The ids of the assets the renderer was built from (the strips): after a reload whose
+    /// [`crate::Changes::touches`] them, build it again.
+    pub fn asset_ids(&self) -> &[String] {
+        &self.assets
     }
 
     /// The strands asset's settings (both sets, bounds).

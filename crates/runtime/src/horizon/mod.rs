@@ -25,7 +25,7 @@ mod terrain;
 use hikage_bundle::{EdgeMode, HorizonSettings, TextureFormat};
 
 pub use surface::{SurfaceFrame, SurfaceShadows, SurfaceUniform};
-pub use terrain::{Sun, TerrainFrame, TerrainShadows, TerrainUniform};
+pub use terrain::{Sun, TerrainExtent, TerrainFrame, TerrainShadows, TerrainUniform};
 
 /// WGSL of the horizon functions (no bindings); include it in a shader module. The components
 /// prepend it to their own WGSL.

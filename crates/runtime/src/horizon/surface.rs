@@ -101,6 +101,7 @@ pub struct SurfaceShadows {
     statics: SurfaceUniform,
     buffer: wgpu::Buffer,
     desc: MeshDesc,
+    assets: Vec<String>,
 }
 
 impl SurfaceShadows {
@@ -182,7 +183,14 @@ impl SurfaceShadows {
             &buffers,
             options,
         )?;
-        Ok(SurfaceShadows { program, uniform, statics, buffer: mesh.buffer.clone(), desc: mesh.desc.clone() })
+        let assets = vec![curvature.to_string(), horizon.to_string(), settings.heightfield.clone()];
+        Ok(SurfaceShadows { program, uniform, statics, buffer: mesh.buffer.clone(), desc: mesh.desc.clone(), assets })
+    }
+
+    /// The ids of the assets the surface was built from (curvature mesh, horizon, heightfield):
+    /// after a reload whose [`crate::Changes::touches`] them, build it again.
+    pub fn asset_ids(&self) -> &[String] {
+        &self.assets
     }
 
     /// The surface's WGSL with its bindings at the chosen group, for a game's own shaders:

@@ -2,7 +2,7 @@
 //! behind the baked horizons, with the baked ambient occlusion as sky visibility.
 
 use glam::{Mat4, Vec3};
-use hikage_bundle::{HeightfieldSettings, HorizonSettings};
+use hikage_bundle::{AssetKind, HeightfieldSettings, HorizonSettings};
 
 use super::{HORIZON_WGSL, HorizonEncoding, horizon_filterable, horizon_sampler};
 use crate::draw::DrawOptions;
@@ -139,6 +139,38 @@ pub struct TerrainShadows {
     uniform: wgpu::Buffer,
     statics: TerrainUniform,
     vertices: u32,
+    extent: TerrainExtent,
+    assets: Vec<String>,
+}
+
+/// Where a terrain lies in its own frame: what a game needs to place a camera over it. The
+/// terrain frame has `x` along +u (columns), `y` up, `z` along +v (rows), in the heightfield's
+/// world units, with texel `(i, j)`'s centre at `((i + ½)·sx, h, (j + ½)·sy)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TerrainExtent {
+    /// Heightfield samples along `u` and `v`.
+    pub size: (u32, u32),
+    /// World units per texel along `u` and `v`.
+    pub texel_size: (f32, f32),
+    /// The lowest and highest world height.
+    pub height_range: (f32, f32),
+    /// The lower corner of the terrain's box in the terrain frame (the first texel's centre,
+    /// the lowest height).
+    pub min: Vec3,
+    /// The upper corner (the last texel's centre, the highest height).
+    pub max: Vec3,
+}
+
+impl TerrainExtent {
+    /// The centre of the terrain's box, terrain frame.
+    pub fn centre(&self) -> Vec3 {
+        0.5 * (self.min + self.max)
+    }
+
+    /// The radius of the sphere around the box.
+    pub fn radius(&self) -> f32 {
+        0.5 * (self.max - self.min).length()
+    }
 }
 
 impl TerrainShadows {
@@ -162,7 +194,7 @@ impl TerrainShadows {
                 message: "a terrain needs at least 2×2 texels".into(),
             });
         }
-        let ao = ao.map(|id| gpu.texture(id)).transpose()?;
+        let ao = ao.map(|id| ambient_occlusion(gpu, id, heights)).transpose()?;
         let filterable = horizon_filterable(device, map.desc.format);
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("hikage terrain"),
@@ -212,7 +244,33 @@ impl TerrainShadows {
             options,
         )?;
         let vertices = 6 * (heights.desc.width - 1) * (heights.desc.height - 1);
-        Ok(TerrainShadows { program, uniform, statics, vertices })
+        let (w, h) = (heights.desc.width, heights.desc.height);
+        let (lo, hi) = heights.range.unwrap_or((0.0, 0.0));
+        let world = |v: f32| hf.height_offset + hf.height_scale * v;
+        let (low, high) = (world(lo).min(world(hi)), world(lo).max(world(hi)));
+        let (sx, sy) = settings.texel_size;
+        let extent = TerrainExtent {
+            size: (w, h),
+            texel_size: (sx, sy),
+            height_range: (low, high),
+            min: Vec3::new(0.5 * sx, low, 0.5 * sy),
+            max: Vec3::new((w as f32 - 0.5) * sx, high, (h as f32 - 0.5) * sy),
+        };
+        let mut assets = vec![horizon.to_string(), settings.heightfield.clone()];
+        assets.extend(ao.map(|a| a.asset.id.clone()));
+        Ok(TerrainShadows { program, uniform, statics, vertices, extent, assets })
+    }
+
+    /// Where the terrain lies in its frame: size, texel size, height range and box, for placing
+    /// a camera ([`TerrainFrame::model`] places the frame in the world).
+    pub fn extent(&self) -> &TerrainExtent {
+        &self.extent
+    }
+
+    /// The ids of the assets the terrain was built from (horizon, heightfield, occlusion): after
+    /// a reload whose [`crate::Changes::touches`] them, build it again.
+    pub fn asset_ids(&self) -> &[String] {
+        &self.assets
     }
 
     /// The terrain's WGSL with its bindings at the chosen group, for a game's own shaders:
@@ -262,6 +320,23 @@ pub(super) fn horizon_settings(map: &GpuTexture) -> Result<&HorizonSettings, Run
         asset: map.asset.id.clone(),
         message: format!("expected a horizon asset, found a {}", map.asset.kind.name()),
     })
+}
+
+/// The `AmbientOcclusion` asset `id` of `gpu` for a terrain of `heights`, or an error naming
+/// `id`: another kind (heights drawn as occlusion) or another size.
+fn ambient_occlusion<'a>(gpu: &'a GpuBundle, id: &str, heights: &GpuTexture) -> Result<&'a GpuTexture, RuntimeError> {
+    let ao = gpu.texture(id)?;
+    let bad = |message: String| RuntimeError::Asset { asset: id.to_string(), message };
+    if ao.asset.kind != AssetKind::AmbientOcclusion {
+        return Err(bad(format!("expected an ambient_occlusion asset, found a {}", ao.asset.kind.name())));
+    }
+    if (ao.desc.width, ao.desc.height) != (heights.desc.width, heights.desc.height) {
+        return Err(bad(format!(
+            "its {}×{} texels do not match the {}×{} heightfield",
+            ao.desc.width, ao.desc.height, heights.desc.width, heights.desc.height
+        )));
+    }
+    Ok(ao)
 }
 
 /// The heightfield settings of `heights`, or an error saying it is not a heightfield.

@@ -163,6 +163,7 @@ pub struct ReliefMaterial {
     tracing: wgpu::Buffer,
     uniform: wgpu::Buffer,
     statics: ReliefUniform,
+    assets: Vec<String>,
 }
 
 impl ReliefMaterial {
@@ -230,7 +231,14 @@ impl ReliefMaterial {
             })],
             options,
         )?;
-        Ok(ReliefMaterial { program, tracing, uniform, statics })
+        let assets = vec![relief.to_string(), settings.max_mip.clone()];
+        Ok(ReliefMaterial { program, tracing, uniform, statics, assets })
+    }
+
+    /// The ids of the assets the material was built from (depth maps, max-mip pyramid): after
+    /// a reload whose [`crate::Changes::touches`] them, build it again.
+    pub fn asset_ids(&self) -> &[String] {
+        &self.assets
     }
 
     /// The material's WGSL with its bindings at the chosen group, for a game's own shaders:
