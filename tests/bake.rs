@@ -420,7 +420,7 @@ fn ribbons_export_as_valid_gltf() {
         let out = std::process::Command::new("node").arg(&script).arg(dir.path("head.glb")).output().unwrap();
         assert!(out.status.success(), "glTF validator: {}", String::from_utf8_lossy(&out.stdout));
     } else {
-        eprintln!("not running the Khronos glTF validator: set HIKAGE_GLTF_VALIDATOR to a Node script (README)");
+        eprintln!("not running the Khronos glTF validator: set HIKAGE_GLTF_VALIDATOR to a Node script (docs/hair.md)");
     }
     // A texture is not a mesh.
     let out = dir.run_expecting(&["export", "b", "head.strips", "--gltf", "x.glb", "--out", "y"], 2);

@@ -22,7 +22,7 @@ const VARIANTS: [(&str, &str); 4] = [
     ("every build dependency at opt-level 3", "[profile.dev.build-override]\nopt-level = 3\n"),
 ];
 
-/// The lines the README recommends, for `cargo build` (dev): the release profile takes the same
+/// The lines the README and docs/pipeline.md recommend, for `cargo build` (dev): the release profile takes the same
 /// two with `release` in place of `dev`.
 const RECOMMENDED: &str =
     "[profile.dev.package.hikage-bake]\nopt-level = 2\n[profile.dev.package.hikage-bundle]\nopt-level = 2\n";

@@ -1,9 +1,9 @@
-//! The benchmark tables of the README. Run from the repository root:
+//! The benchmark tables of docs/benchmarks.md. Run from the repository root:
 //!
 //! ```text
 //! cargo run --release --example bench              # every table
 //! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load
-//! cargo run --release --example bench -- scale     # tiled bakes: ~20 min, ~50 GiB of disk
+//! cargo run --release --example bench -- scale     # tiled bakes: ~40 min, ~50 GiB of disk
 //! cargo run --release --example bench -- build-script   # clean builds of a game crate: ~15 min
 //! ```
 //!

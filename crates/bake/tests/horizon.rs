@@ -262,8 +262,8 @@ fn random_maps_never_exceed_the_brute_force_and_meet_the_max_gate_on_moderate_re
     // edge modes, direction counts and reaches. Every far horizon is a real sample of the ray,
     // so no texel may be steeper than the brute force, and open sky must agree. Where heights
     // span at most two texel spacings the default near field keeps every texel within 2°;
-    // steeper maps can miss a far horizon that the lines one row either side do not see (see
-    // the README), so only the first two properties are asserted there.
+    // steeper maps can miss a far horizon that the lines one row either side do not see
+    // (docs/horizon.md), so only the first two properties are asserted there.
     let mut rng = Rng(0x2545_F491_4F6C_DD1D);
     for case in 0..120 {
         let (w, h) = (1 + rng.next() % 40, 1 + rng.next() % 40);

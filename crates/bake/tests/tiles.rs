@@ -3,7 +3,7 @@
 //! bytes of the same region of the whole map's texture.
 
 use hikage_bake::heightfield::Heightfield;
-use hikage_bake::horizon::{self, HorizonFormat, HorizonParams, TileWindow};
+use hikage_bake::horizon::{self, HorizonFormat, HorizonParams, Rect, TileWindow};
 use hikage_bundle::EdgeMode;
 use hikage_devkit::synth;
 
@@ -28,7 +28,7 @@ fn terraces(w: u32, h: u32, levels: f32, seed: u32) -> Vec<f32> {
 /// The window of `place` cut from `map` by hand: texel (x, y) of the window is map texel
 /// (window origin + (x, y)) wrapped into the map.
 fn cut(map: &Heightfield, place: &TileWindow) -> Heightfield {
-    let (wx, wy, ww, wh) = place.window;
+    let Rect { x: wx, y: wy, width: ww, height: wh } = place.window;
     let mut samples = Vec::new();
     for y in 0..wh as i64 {
         for x in 0..ww as i64 {
@@ -50,13 +50,13 @@ fn tiles_equal_whole(name: &str, map: &Heightfield, params: &HorizonParams, tile
     let mut tiles = 0;
     for ty in (0..h).step_by(tile as usize) {
         for tx in (0..w).step_by(tile as usize) {
-            let rect = (tx, ty, tile.min(w - tx), tile.min(h - ty));
+            let rect = Rect::new(tx, ty, tile.min(w - tx), tile.min(h - ty));
             let place = TileWindow::new((w, h), rect, halo, params.edge);
             let window = cut(map, &place);
             let baked = horizon::bake_tile(&window, &place, params, &silent).unwrap();
             assert_eq!(baked.distance_scale, whole.distance_scale, "{name}");
-            let (tw, th) = (rect.2 as usize, rect.3 as usize);
-            assert_eq!((baked.texture.desc.width, baked.texture.desc.height), (rect.2, rect.3));
+            let (tw, th) = (rect.width as usize, rect.height as usize);
+            assert_eq!((baked.texture.desc.width, baked.texture.desc.height), (rect.width, rect.height));
             let got = &baked.texture.levels[0];
             let all = &whole.texture.levels[0];
             for k in 0..d {
@@ -131,7 +131,7 @@ fn tiling_without_max_distance_is_refused_by_name() {
 fn a_window_without_its_halo_is_refused() {
     let map = field(64, 64, synth::terrain(64), (1.0, 1.0), 30.0);
     let p = params(8, EdgeMode::Wrap, 10.0, 4, HorizonFormat::Rg16Float);
-    let place = TileWindow::new((64, 64), (16, 16, 16, 16), (4, 4), EdgeMode::Wrap);
+    let place = TileWindow::new((64, 64), Rect::new(16, 16, 16, 16), (4, 4), EdgeMode::Wrap);
     let err = horizon::bake_tile(&cut(&map, &place), &place, &p, &silent).unwrap_err();
     assert!(err.contains("halo"), "{err}");
 }

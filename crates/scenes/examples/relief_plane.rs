@@ -39,7 +39,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         shadows: true,
         ao_stride: 8,
     };
-    // The cheapest settings meeting the accuracy bar on these maps (README, relief benchmark).
+    // The cheapest settings meeting the accuracy bar on these maps (docs/relief.md, the relief benchmark).
     let tracers = [
         Tracer::Linear { steps: 256, binary: 6 },
         Tracer::DepthMap { steps: 128, binary: 6 },

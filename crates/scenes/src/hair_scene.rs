@@ -223,7 +223,7 @@ pub fn box_filter(v: &[f32], (w, h): (u32, u32), factor: u32) -> Vec<f32> {
 /// opacity maps at `factor` × `resolution` texels a side, the ground's visibility rendered at
 /// `factor` × `size` and box-filtered down to `size` — what anti-aliased opacity maps of
 /// `resolution`² should converge to.
-#[allow(clippy::too_many_arguments)]
+#[expect(clippy::too_many_arguments, reason = "a test scene's knobs, each set by the examples and tests")]
 pub fn reference_shadow(
     g: &Headless,
     gpu: &hikage_runtime::GpuBundle,
@@ -351,7 +351,7 @@ pub enum Composite {
 /// (expanded toward the eye), shaded by the CPU reference with the opacity maps `maps` (read
 /// back from the GPU, or from `accumulate_cpu`), composited by `how` over black. Per pixel:
 /// linear RGB (premultiplied) and coverage.
-#[allow(clippy::too_many_arguments)]
+#[expect(clippy::too_many_arguments, reason = "the CPU camera pass takes what the GPU pass binds")]
 pub fn camera_reference(
     strips: &hikage_runtime::hair::reference::StripArrays,
     uniform: &hikage_runtime::hair::HairUniform,

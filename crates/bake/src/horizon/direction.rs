@@ -53,7 +53,6 @@ pub(super) struct Direction<'a> {
 impl<'a> Direction<'a> {
     /// The direction of slope `m` (rows per column) on grid `g`, placed in the map by `frame`,
     /// whose texels go into an output slice of `size` texels in `format`.
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn new(
         g: &'a Grid,
         frame: Frame,

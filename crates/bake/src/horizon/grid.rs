@@ -132,7 +132,6 @@ impl Orientation {
 
     /// Builds the canonical grid of a `width`×`height` field of `samples` × `scale`, padded by
     /// `pad` (see [`Grid`]).
-    #[allow(clippy::too_many_arguments)]
     pub fn grid(
         self,
         (width, height): (usize, usize),

@@ -50,7 +50,7 @@ use grid::{Frame, Orientation};
 pub use ao::ambient_occlusion;
 pub use encode::{HorizonFormat, OPEN_SKY_SLOPE, decode};
 pub use params::{DEFAULT_NEAR_FIELD, HorizonParams};
-pub use tile::{TileWindow, bake_tile, halo};
+pub use tile::{Rect, TileWindow, bake_tile, halo};
 
 /// Version of the horizon baker; part of the input hash.
 pub const ALGORITHM_VERSION: u32 = 4;

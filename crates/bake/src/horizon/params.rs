@@ -31,7 +31,7 @@ impl Default for HorizonParams {
     }
 }
 
-/// Default near field: enough for the accuracy gates on rough terrain (see the README).
+/// Default near field: enough for the accuracy gates on rough terrain (docs/horizon.md, the accuracy against the brute force).
 pub const DEFAULT_NEAR_FIELD: u32 = 16;
 
 impl HorizonParams {

@@ -18,24 +18,45 @@ use super::grid::{Frame, Orientation};
 use super::{HorizonParams, HorizonTexture, schedule, texture_desc};
 use crate::heightfield::Heightfield;
 
+/// A rectangle of texels: its first column `x` and row `y` (negative for a window reaching left
+/// of or above a torus), its width and height.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Rect<T> {
+    /// First column.
+    pub x: T,
+    /// First row.
+    pub y: T,
+    /// Columns.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+}
+
+impl<T> Rect<T> {
+    /// The rectangle at `(x, y)` of `width` × `height`.
+    pub fn new(x: T, y: T, width: u32, height: u32) -> Rect<T> {
+        Rect { x, y, width, height }
+    }
+}
+
 /// Where a tile lies in the whole map, and the window of heights its bake reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TileWindow {
     /// The whole map's width and height in texels.
     pub map: (u32, u32),
-    /// The tile's first column and row in the map, and its width and height.
-    pub tile: (u32, u32, u32, u32),
-    /// The window's first column and row in the map and its width and height. On a torus
-    /// (`EdgeMode::Wrap`) it may start left of or above the map, or end past it: its texels are
-    /// then read around the torus. A clamped map's window stays inside the map.
-    pub window: (i64, i64, u32, u32),
+    /// The tile's texels in the map.
+    pub tile: Rect<u32>,
+    /// The window's texels in the map. On a torus (`EdgeMode::Wrap`) it may start left of or
+    /// above the map, or end past it: its texels are then read around the torus. A clamped
+    /// map's window stays inside the map.
+    pub window: Rect<i64>,
 }
 
 impl TileWindow {
-    /// The window of the tile at `tile` = (column, row, width, height) of a `map`: the tile
-    /// grown by `halo` = (columns, rows) on every side, kept inside a clamped map.
-    pub fn new(map: (u32, u32), tile: (u32, u32, u32, u32), halo: (u32, u32), edge: EdgeMode) -> TileWindow {
-        let (x, y, w, h) = tile;
+    /// The window of `tile` in a `map`: the tile grown by `halo` = (columns, rows) on every
+    /// side, kept inside a clamped map.
+    pub fn new(map: (u32, u32), tile: Rect<u32>, halo: (u32, u32), edge: EdgeMode) -> TileWindow {
+        let Rect { x, y, width: w, height: h } = tile;
         let axis = |start: u32, len: u32, halo: u32, size: u32| -> (i64, u32) {
             let (lo, hi) = (start as i64 - halo as i64, (start + len) as i64 + halo as i64);
             let (lo, hi) = match edge {
@@ -46,7 +67,7 @@ impl TileWindow {
         };
         let (wx, ww) = axis(x, w, halo.0, map.0);
         let (wy, wh) = axis(y, h, halo.1, map.1);
-        TileWindow { map, tile, window: (wx, wy, ww, wh) }
+        TileWindow { map, tile, window: Rect::new(wx, wy, ww, wh) }
     }
 }
 
@@ -81,8 +102,8 @@ pub fn bake_tile(
 ) -> Result<HorizonTexture, String> {
     params.check()?;
     let halo = halo(params, window.texel_size)?;
-    let (wx, wy, ww, wh) = place.window;
-    let (tx, ty, tw, th) = place.tile;
+    let Rect { x: wx, y: wy, width: ww, height: wh } = place.window;
+    let Rect { x: tx, y: ty, width: tw, height: th } = place.tile;
     if (window.width, window.height) != (ww, wh) {
         return Err(format!("the window holds {}×{} heights, expected {ww}×{wh}", window.width, window.height));
     }

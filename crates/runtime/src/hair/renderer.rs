@@ -25,7 +25,7 @@ const STREAMS: [(&str, wgpu::VertexFormat); 6] = {
 };
 
 const DEPTH_MAP: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
-const LAYERS: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+const LAYERS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const ACCUM: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const REVEALAGE: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
 
@@ -290,7 +290,7 @@ impl HairRenderer {
         let uniform = gpu::uniform_buffer(device, queue, "hikage hair", &HairUniform::zeroed_for(resolution));
         let maps = (resolution, resolution);
         let depth_map = texture(device, maps, DEPTH_MAP, "hikage hair depth map");
-        let layers = texture(device, maps, LAYERS, "hikage hair opacity layers");
+        let layers = texture(device, maps, LAYERS_FORMAT, "hikage hair opacity layers");
         let zbuffer = device
             .create_texture(&wgpu::TextureDescriptor {
                 label: Some("hikage hair light depth"),
@@ -593,7 +593,7 @@ fn pipelines(device: &wgpu::Device, wgsl: &str, layouts: &Layouts, options: &Hai
             &layouts.opacity,
             ("hair_vs_light", "hair_fs_opacity"),
             true,
-            &[target(LAYERS, Some(wgpu::BlendState { color: add, alpha: add }))],
+            &[target(LAYERS_FORMAT, Some(wgpu::BlendState { color: add, alpha: add }))],
             None,
         ),
         oit: pipeline(

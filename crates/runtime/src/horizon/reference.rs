@@ -75,7 +75,7 @@ pub struct HorizonSurfaceLight {
 
 /// Takes light `l` into the bump frame of a surface point (see the WGSL function of the same
 /// name for every argument).
-#[allow(clippy::too_many_arguments)]
+#[expect(clippy::too_many_arguments, reason = "mirrors a WGSL function argument for argument")]
 pub fn horizon_surface_light(
     l: Vec3,
     pu: Vec3,
@@ -101,7 +101,6 @@ pub fn horizon_surface_light(
 }
 
 /// The whole test at a surface point, as `horizon_surface_lit` in WGSL.
-#[allow(clippy::too_many_arguments)]
 pub fn horizon_surface_lit(
     map: &HorizonMap,
     uv: Vec2,
@@ -314,7 +313,7 @@ impl SurfaceReference {
 
     /// `surface_lit` of the WGSL: is the point lit by `light` (mesh space, unit)? The other
     /// arguments are the Curvature asset's streams interpolated at the point.
-    #[allow(clippy::too_many_arguments)]
+    #[expect(clippy::too_many_arguments, reason = "mirrors a WGSL function argument for argument")]
     pub fn lit(
         &self,
         light: Vec3,

@@ -19,7 +19,7 @@ use hikage_bundle::TilePlacement;
 use super::HorizonJob;
 use crate::error::BakeError;
 use crate::heightfield::Heightfield;
-use crate::horizon::{self, TileWindow};
+use crate::horizon::{self, Rect, TileWindow};
 use crate::jobs::{BakedAsset, Baker, JobContext};
 
 /// One tile of a tiled horizon job.
@@ -55,14 +55,14 @@ pub(super) fn tiles(job: &HorizonJob, size: u32, ctx: &JobContext) -> Result<Vec
     for ty in 0..count(h) {
         for tx in 0..count(w) {
             let (x, y) = (tx * size, ty * size);
-            let rect = (x, y, size.saturating_add(1).min(w - x), size.saturating_add(1).min(h - y));
+            let rect = Rect::new(x, y, size.saturating_add(1).min(w - x), size.saturating_add(1).min(h - y));
             let place = TileWindow::new((w, h), rect, halo, job.options.edge);
-            let (_, _, ww, wh) = place.window;
+            let (ww, wh) = (place.window.width, place.window.height);
             if ww.max(wh) > limits.max_dimension {
                 return Err(setting(format!(
                     "a {}×{} tile with a halo of {halo:?} texels (max_distance {:?}) reads a {ww}×{wh} window of \
                      heights, above the limit of {}: lower tile or max_distance",
-                    rect.2, rect.3, job.options.max_distance, limits.max_dimension
+                    rect.width, rect.height, job.options.max_distance, limits.max_dimension
                 )));
             }
             parts.push(Box::new(HorizonTileJob {
@@ -87,15 +87,15 @@ impl HorizonTileJob {
         TilePlacement {
             map: self.job.id.clone(),
             index: self.index,
-            origin: (self.place.tile.0, self.place.tile.1),
+            origin: (self.place.tile.x, self.place.tile.y),
             map_size: self.place.map,
         }
     }
 
     /// The tile's texels of the window's heights.
     fn tile_heights(&self, window: &Heightfield) -> Heightfield {
-        let (tx, ty, tw, th) = self.place.tile;
-        let (x0, y0) = ((tx as i64 - self.place.window.0) as usize, (ty as i64 - self.place.window.1) as usize);
+        let Rect { x: tx, y: ty, width: tw, height: th } = self.place.tile;
+        let (x0, y0) = ((tx as i64 - self.place.window.x) as usize, (ty as i64 - self.place.window.y) as usize);
         let ww = window.width as usize;
         let samples = (0..th as usize)
             .flat_map(|r| window.samples[(y0 + r) * ww + x0..][..tw as usize].iter().copied())
@@ -156,7 +156,7 @@ impl Baker for HorizonTileJob {
                 format!("expected the {w}×{h} map the job was split for, found {fw}×{fh}"),
             ));
         }
-        let (wx, wy, ww, wh) = self.place.window;
+        let Rect { x: wx, y: wy, width: ww, height: wh } = self.place.window;
         let samples = source.read_window((wx, wy), (ww, wh), self.void_fill)?;
         // The checks a whole-map load makes, on the samples this tile reads.
         let heights = &self.job.source;
