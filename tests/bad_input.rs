@@ -397,6 +397,70 @@ fn crafted_hair_files_are_refused_with_their_place() {
     assert!(stderr(&out).contains("taper"), "{}", stderr(&out));
 }
 
+/// Hair no one could see is refused, naming the file, where the value came from and the
+/// settings that fix it: strands wider than a tenth of the hair's box (a header asking for
+/// 1-wide strands on 2-unit hair), strands with no opacity, strands with no width; the job's own
+/// settings make the same file bake. `validate PIPELINE` says the same before any bake.
+#[test]
+fn invisible_hair_is_refused_with_the_value_and_the_fix() {
+    let dir = Dir::new("invisible_hair");
+    let strands = |thickness: Option<Vec<f32>>, default_thickness: f32, default_transparency: f32| {
+        let s = hikage_bake::strands::Strands {
+            segments: vec![2, 1],
+            points: vec![[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 2.0, 0.5], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0]],
+            thickness,
+            transparency: None,
+            color: None,
+            default_thickness,
+            default_transparency,
+            default_color: [0.5; 3],
+        };
+        hikage_bake::strands::cyhair::encode(&s, "crafted")
+    };
+    let cases: Vec<(&str, Vec<u8>, Vec<&str>)> = vec![
+        (
+            "wide.hair",
+            strands(None, 1.0, 0.0),
+            vec!["the header's default thickness", "wider than a tenth", "shading_width"],
+        ),
+        (
+            "clear.hair",
+            strands(None, 0.01, 1.0),
+            vec!["the header's default transparency", "opacity 0", "shading_alpha"],
+        ),
+        ("thin.hair", strands(Some(vec![0.0; 5]), 0.01, 0.5), vec!["the per-point thickness", "cannot be seen"]),
+    ];
+    for (name, bytes, needles) in cases {
+        dir.write(name, &bytes);
+        let args = ["strands", name, "--out", "b"];
+        let out = dir.run_expecting(&args, 1);
+        let err = stderr(&out);
+        for n in needles.iter().chain([&name]) {
+            assert!(err.contains(n), "{}", dir.explain(&args, &out, n));
+        }
+        assert!(!dir.path("b/bundle.ron").exists());
+        dir.write("pipeline.ron", format!("(output: \"p\", jobs: [Strands(id: \"h\", input: \"{name}\")])"));
+        let out = dir.run_expecting(&["validate", "pipeline.ron"], 1);
+        assert!(stderr(&out).contains(needles[0]), "{}", stderr(&out));
+    }
+    dir.run(&["strands", "wide.hair", "--out", "b", "--shading-width", "0.01"]);
+    dir.run(&["strands", "clear.hair", "--out", "b", "--shading-alpha", "0.4"]);
+}
+
+/// Strands baked before format 1.5 (the strip layout) are reported by `validate` with the way
+/// out, rather than drawn wrong.
+#[test]
+fn strands_of_an_older_format_are_reported_with_the_fix() {
+    let dir = Dir::new("old_strands");
+    dir.write("ok.hair", hair_bytes());
+    dir.run(&["strands", "ok.hair", "--out", "bundle"]);
+    dir.run(&["validate", "bundle"]);
+    edit_manifest(&dir, "minor: 5", "minor: 4");
+    let out = dir.run_expecting(&["validate", "bundle"], 1);
+    let said = format!("{}{}", stdout(&out), stderr(&out));
+    assert!(said.contains("ok.strips") && said.contains("bake them again"), "{said}");
+}
+
 /// Hostile sizes are refused before anything is allocated, and the process stays small: a
 /// manifest claiming ten million assets (a 3 GB sparse file), a PNG header claiming
 /// 100000×100000, a KTX2 level claiming 2^40 bytes, a `.hair` header claiming 4 billion points.

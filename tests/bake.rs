@@ -45,8 +45,10 @@ fn default_pipeline_bakes_validates_and_inspects() {
                 }
                 "max_mip" => assert_eq!(a["levels"], 9, "{a}"),
                 "strands" => {
-                    assert_eq!(a["vertex_count"], 440_000, "{a}");
-                    assert_eq!(a["index_count"], 6 * 21 * 10_000, "{a}");
+                    // One 32-byte record per point, no indices.
+                    assert_eq!(a["vertex_count"], 220_000, "{a}");
+                    assert_eq!(a["index_count"], 0, "{a}");
+                    assert_eq!(a["byte_length"], 32 * 220_000, "{a}");
                     let sets = a["sets"].as_array().unwrap();
                     assert_eq!(sets[0]["name"], "shading");
                     assert!(sets[1]["width"].as_f64().unwrap() > sets[0]["width"].as_f64().unwrap());
@@ -375,7 +377,8 @@ fn relief_one_shot_adds_depth_maps_and_refuses_bad_settings() {
 }
 
 /// `export --gltf` of the ribbon mesh: a well-formed GLB whose accessors describe exactly the
-/// streams of the asset (positions with min/max, custom `_WIDTH`/`_OPACITY`), and — when
+/// streams of the asset (positions with min/max, `TANGENT`, `COLOR_0` with the opacity), the
+/// same file as the export of the strips themselves, and — when
 /// `HIKAGE_GLTF_VALIDATOR` names a Node script running the Khronos glTF validator on its argument
 /// — a file that validator accepts.
 #[test]
@@ -396,12 +399,12 @@ fn ribbons_export_as_valid_gltf() {
     assert_eq!(&glb[bin_at + 4..bin_at + 8], b"BIN\0");
     let bin = &glb[bin_at + 8..bin_at + 8 + u32_at(bin_at) as usize];
     let attrs = &doc["meshes"][0]["primitives"][0]["attributes"];
-    for name in ["POSITION", "NORMAL", "COLOR_0", "_WIDTH", "_OPACITY", "_PARAM"] {
+    for name in ["POSITION", "NORMAL", "TANGENT", "TEXCOORD_0", "COLOR_0", "_STRAND_ID"] {
         assert!(attrs[name].is_u64(), "{name} missing: {attrs}");
     }
     let bundle = hikage_bundle::Bundle::open(&dir.path("b")).unwrap();
     let mesh = bundle.read_mesh("head.ribbons").unwrap();
-    for (gltf, stream, width) in [("POSITION", "position", 3), ("_WIDTH", "width", 1), ("_OPACITY", "opacity", 1)] {
+    for (gltf, stream, width) in [("POSITION", "position", 3), ("TANGENT", "tangent", 4), ("COLOR_0", "color", 4)] {
         let acc = &doc["accessors"][attrs[gltf].as_u64().unwrap() as usize];
         let view = &doc["bufferViews"][acc["bufferView"].as_u64().unwrap() as usize];
         let (off, len) = (view["byteOffset"].as_u64().unwrap() as usize, view["byteLength"].as_u64().unwrap() as usize);
@@ -416,6 +419,8 @@ fn ribbons_export_as_valid_gltf() {
             assert_eq!(got, min);
         }
     }
+    dir.run(&["export", "b", "head.strips", "--gltf", "strips.glb"]);
+    assert!(dir.read("strips.glb") == glb, "the strips export as their ribbons");
     if let Ok(script) = std::env::var("HIKAGE_GLTF_VALIDATOR") {
         let out = std::process::Command::new("node").arg(&script).arg(dir.path("head.glb")).output().unwrap();
         assert!(out.status.success(), "glTF validator: {}", String::from_utf8_lossy(&out.stdout));

@@ -168,7 +168,10 @@ fn a_build_script_reports_errors_with_their_place() {
 fn two_pipelines_cannot_share_one_output() {
     let dir = fixture("build_script_shared_output");
     let shared = dir.path("shared");
-    dir.write("assets/other.ron", "(output: \"bundle\", jobs: [Strands(id: \"fur\", input: \"hair.obj\")])");
+    dir.write(
+        "assets/other.ron",
+        "(output: \"bundle\", jobs: [Strands(id: \"fur\", input: \"hair.obj\", shading_width: Some(0.02))])",
+    );
     dir.write(
         "build.rs",
         format!(

@@ -4,16 +4,20 @@
 
 use hikage_bake::strands::Strands;
 use hikage_bake::strands::strips::{StripSets, build};
-use hikage_bundle::{BundleWriter, Settings, StrandsSettings, WriteMode};
+use hikage_bundle::{BundleWriter, Settings, WriteMode};
+use hikage_devkit::synth;
 use hikage_runtime::glam::Vec3;
 use hikage_runtime::glam::camera::rh::proj::directx;
 use hikage_runtime::glam::camera::rh::view::look_at_mat4;
-use hikage_runtime::hair::reference::{StripArrays, accumulate_cpu};
-use hikage_runtime::hair::{HairFrame, HairLight, HairOptions, HairRenderer, HairSet, LayerRule, Lookup};
+use hikage_runtime::hair::reference::{Facing, StripArrays, accumulate_cpu, expand};
+use hikage_runtime::hair::{
+    HairFrame, HairLight, HairLod, HairOptions, HairRenderer, HairSet, HairStyle, LayerRule, Lod, Lookup,
+};
 use hikage_runtime::{CpuBundle, GpuBundle, wgpu};
 use hikage_scenes::hair_scene::{
     Composite, HairBlend, camera_reference, read_opacity_maps, render_frame, srgb_to_linear,
 };
+use hikage_scenes::hair_view::orbit_camera;
 use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT};
 
 use crate::util::{Dir, gpu};
@@ -48,23 +52,20 @@ fn strands_bundle(name: &str) -> (Dir, StripArrays) {
         default_transparency: 0.6,
         default_color: [0.5; 3],
     };
-    let sets = StripSets { shading: (0.05, 0.4), opacity: (0.23, 0.09), taper: 0.0 };
-    let (mesh, lo, hi) = build(&s, &sets);
-    let settings = StrandsSettings {
-        strands: 5,
-        points: 32,
-        shading: sets.shading,
-        opacity: sets.opacity,
-        taper: 0.0,
-        auto_resolution: None,
-        bounds_min: lo,
-        bounds_max: hi,
-    };
+    let sets = StripSets { shading: (0.05, 0.4), opacity: (0.23, 0.09), taper: 0.3 };
+    strips_dir(name, "s.strips", &s, &sets)
+}
+
+/// A bundle in a fresh directory holding the strips of `s` with `sets` as asset `id`, and
+/// their records for the CPU reference.
+fn strips_dir(name: &str, id: &str, s: &Strands, sets: &StripSets) -> (Dir, StripArrays) {
+    let strips = build(s, sets);
+    let settings = strips.settings(s, sets, None);
     let dir = Dir::new(name);
     let mut writer = BundleWriter::open(&dir.path("bundle"), WriteMode::Replace).unwrap();
-    writer.put_mesh("s.strips", Settings::Strands(settings), "test", &mesh).unwrap();
+    writer.put_mesh(id, Settings::Strands(settings.clone()), "test", &strips.mesh).unwrap();
     writer.commit().unwrap();
-    (dir, StripArrays::from_mesh(&mesh).unwrap())
+    (dir, StripArrays::from_mesh(&strips.mesh, &settings).unwrap())
 }
 
 /// Deep opacity maps of a few strands on the GPU against the CPU reference of the same
@@ -84,12 +85,15 @@ fn hair_opacity_maps_match_the_cpu_accumulation() {
         [HairSet::Shading, HairSet::Opacity].into_iter().flat_map(|s| [(s, LayerRule::Box), (s, LayerRule::PerTexel)])
     {
         let light = HairLight { rule, ..renderer.light(Vec3::new(0.15, 1.0, 0.1)) };
-        renderer.update(&g.queue, &HairFrame { set, ..HairFrame::new(Default::default(), Vec3::Z, light) });
+        let frame = HairFrame { set, ..HairFrame::new(Default::default(), Vec3::Z, light) };
+        renderer.update(&g.queue, &frame);
         let mut encoder = g.device.create_command_encoder(&Default::default());
         renderer.render_opacity_maps(&mut encoder);
         g.queue.submit([encoder.finish()]);
         let (gpu_depth, gpu_layers) = read_opacity_maps(&g, &renderer);
-        let (cpu_depth, cpu_layers) = accumulate_cpu(&arrays, &light, set, resolution);
+        let points = arrays.points_of_level(renderer.chosen_levels(&frame).1);
+        let expanded = expand(&arrays, &renderer.uniform(&frame), Facing::Light, points);
+        let (cpu_depth, cpu_layers) = accumulate_cpu(&expanded, &light, resolution);
         let n = (resolution * resolution) as usize;
         let (mut covered, mut depth_ok, mut layers_ok) = (0, 0, 0);
         for i in 0..n {
@@ -132,19 +136,37 @@ fn hair_camera_pass_matches_the_cpu_composite() {
     let eye = Vec3::new(0.2, 1.2, 3.0);
     let camera = directx::perspective(45f32.to_radians(), size.0 as f32 / size.1 as f32, 0.5, 10.0)
         * look_at_mat4(eye, Vec3::new(0.0, 0.3, 0.0), Vec3::Y);
+    // The last case widens every strip to 4 pixels (its opacity lowered to match) and styles
+    // the strands: a root-to-tip tint and fade, a taper of its own, a per-strand variation.
+    let styled = HairStyle {
+        root_tint: Vec3::new(1.0, 0.8, 0.6),
+        tip_tint: Vec3::new(0.5, 0.9, 1.0),
+        root_alpha: 1.0,
+        tip_alpha: 0.4,
+        taper: Some(0.6),
+        color_variation: 0.5,
+    };
     let cases = [
-        (HairBlend::OrderIndependent, Composite::OrderIndependent, Lookup::Nearest),
-        (HairBlend::Opaque, Composite::Opaque, Lookup::Nearest),
-        (HairBlend::OrderIndependent, Composite::OrderIndependent, Lookup::Bilinear),
+        (HairBlend::OrderIndependent, Composite::OrderIndependent, Lookup::Nearest, 1.0, HairStyle::default()),
+        (HairBlend::Opaque, Composite::Opaque, Lookup::Nearest, 1.0, HairStyle::default()),
+        (HairBlend::OrderIndependent, Composite::OrderIndependent, Lookup::Bilinear, 1.0, HairStyle::default()),
+        (HairBlend::OrderIndependent, Composite::OrderIndependent, Lookup::Nearest, 4.0, styled),
     ];
-    for (blend, how, lookup) in cases {
-        let frame =
-            HairFrame { ambient: Vec3::splat(0.2), specular: 0.5, lookup, ..HairFrame::new(camera, eye, light) };
+    for (blend, how, lookup, min_pixel_width, style) in cases {
+        let frame = HairFrame {
+            ambient: Vec3::splat(0.2),
+            specular: 0.5,
+            lookup,
+            min_pixel_width,
+            style,
+            ..HairFrame::new(camera, eye, light)
+        };
         renderer.update(&g.queue, &frame);
         let uniform = renderer.uniform(&frame);
         let image = render_frame(&g, &renderer, None, blend, size, wgpu::Color::BLACK);
         let maps = read_opacity_maps(&g, &renderer);
-        let reference = camera_reference(&arrays, &uniform, &light, &maps, camera, eye, size, how);
+        let points = arrays.points_of_level(renderer.chosen_levels(&frame).0);
+        let reference = camera_reference(&arrays, &uniform, &light, &maps, (size, points), how);
         let (mut covered, mut close, mut lit) = (0, 0, 0.0f32);
         for (i, r) in reference.iter().enumerate() {
             if r[3] <= 0.0 {
@@ -157,10 +179,10 @@ fn hair_camera_pass_matches_the_cpu_composite() {
             lit += r[0] + r[1] + r[2];
         }
         eprintln!(
-            "{blend:?} {lookup:?}: {covered} pixels with hair, {:.2}% within 2% of the CPU",
+            "{blend:?} {lookup:?} (≥ {min_pixel_width} px): {covered} pixels with hair, {:.2}% within 2% of the CPU",
             100.0 * close as f64 / covered as f64
         );
-        assert!(covered > 500, "the strands should cover part of the image");
+        assert!(covered > 400, "the strands should cover part of the image");
         assert!(lit / covered as f32 > 0.1, "lit hair");
         assert!(close as f64 >= 0.97 * covered as f64, "{blend:?}: {close} of {covered}");
     }
@@ -204,4 +226,146 @@ fn hair_reference_shadow_converges() {
     assert!(sixteen.iter().filter(|&&v| v < 0.98).count() > 200, "the shadow should be in view");
     assert!(rms < 0.05 && max < 0.25, "8× vs 16×: RMS {rms}, max {max}");
     assert!(plain_rms > 5.0 * rms, "1× maps {plain_rms} should be far from the reference ({rms})");
+}
+
+/// Strands baked into a bundle as `h.strips`, the sets from the source (widths scaled by
+/// `width_scale`).
+fn layout_bundle(name: &str, s: &Strands, width_scale: f32) -> (Dir, StripArrays) {
+    let base = StripSets::from_source(s);
+    let sets = StripSets { shading: (base.shading.0 * width_scale, base.shading.1), ..base };
+    let sets = StripSets {
+        opacity: (sets.shading.0 * hikage_bake::strands::strips::PAPER_WIDTH_RATIO, base.opacity.1),
+        ..sets
+    };
+    strips_dir(name, "h.strips", s, &sets)
+}
+
+/// A camera frame of every strand around the hair's box, `degrees` of orbit.
+fn view_frame(renderer: &HairRenderer, degrees: f32, min_pixel_width: f32, level: u32) -> HairFrame {
+    let s = renderer.settings();
+    let (camera, eye) = orbit_camera(Vec3::from(s.bounds_min), Vec3::from(s.bounds_max), degrees);
+    let lod = HairLod { camera: Lod::Level(level), light: Lod::Level(0) };
+    HairFrame { min_pixel_width, lod, ..HairFrame::new(camera, eye, renderer.light(Vec3::new(0.45, 1.0, 0.3))) }
+}
+
+/// Sub-pixel strands in the camera view against the same renderer supersampled 8× and
+/// box-filtered, on generated heads whose strips are about a tenth of a pixel wide: drawn at
+/// their own width they speckle (far from the reference, noisy, flickering under a 1° orbit);
+/// widened to a pixel with their opacity lowered to keep the coverage, they come nearer the
+/// reference than its own uncertainty (what going from 4× to 8× still changes it by), as
+/// smooth as it, and steady under the orbit.
+#[test]
+fn sub_pixel_hair_in_view_matches_the_supersampled_reference() {
+    use hikage_scenes::hair_view::{difference, flicker, hair_mask, noise, render_view, renderers};
+    let Some(g) = gpu("sub_pixel_hair_in_view_matches_the_supersampled_reference") else { return };
+    let size = 96;
+    for (name, s) in [("head", synth::hair(3000, 16, 3)), ("curly", synth::curly(2000, 32, 9))] {
+        let (dir, _) = layout_bundle(&format!("gpu_hair_view_{name}"), &s, 1.0);
+        let cpu = CpuBundle::read(&dir.path("bundle")).unwrap();
+        let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
+        let (one, eight) = renderers(&g, &gb, "h.strips", size, 8, 128).unwrap();
+        let (_, four) = renderers(&g, &gb, "h.strips", size, 4, 128).unwrap();
+        let reference = [0.0, 1.0].map(|deg| render_view(&g, &eight, &view_frame(&eight, deg, 0.0, 0), size, 8));
+        let coarser = render_view(&g, &four, &view_frame(&four, 0.0, 0.0, 0), size, 4);
+        let mask = hair_mask(&reference[0], &coarser);
+        let (uncertainty, _) = difference(&coarser, &reference[0], &mask);
+        let ref_noise = noise(&reference[0], size, &mask);
+        let ref_flicker = flicker(&reference[0], &reference[1], &mask);
+        let mut rows = Vec::new();
+        for min_width in [0.0, 1.0] {
+            let views = [0.0, 1.0].map(|deg| render_view(&g, &one, &view_frame(&one, deg, min_width, 0), size, 1));
+            let mask = hair_mask(&views[0], &reference[0]);
+            let (rms, _) = difference(&views[0], &reference[0], &mask);
+            rows.push((rms, noise(&views[0], size, &mask) / ref_noise, flicker(&views[0], &views[1], &mask)));
+        }
+        let [(before, before_noise, before_flicker), (after, after_noise, after_flicker)] = rows[..] else {
+            unreachable!()
+        };
+        eprintln!(
+            "{name}: reference 4× vs 8×: {uncertainty:.4}; own width: RMS {before:.4}, noise {before_noise:.2}×, flicker {:.1}%; ≥ 1 px: RMS {after:.4}, noise {after_noise:.2}×, flicker {:.1}% (reference {:.1}%)",
+            100.0 * before_flicker,
+            100.0 * after_flicker,
+            100.0 * ref_flicker
+        );
+        assert!(mask.iter().filter(|&&m| m).count() > 2000, "{name}: the hair should fill the view");
+        assert!(after < uncertainty, "{name}: {after} against the reference's {uncertainty}");
+        assert!(before > 3.0 * after, "{name}: own width {before}, widened {after}");
+        assert!(after_noise < 1.3 && before_noise > 2.0, "{name}: noise {after_noise}, {before_noise}");
+        assert!(after_flicker < before_flicker / 3.0, "{name}: flicker {after_flicker}, {before_flicker}");
+    }
+}
+
+/// The order-independent blend against the exact sorted composite of the same fragments (the
+/// CPU reference, with the GPU's opacity maps), on hair dense enough that its outer layer hides
+/// the self-shadowed inner ones: within 0.035 RMS, and nearer than one weight for every fragment
+/// (what the blend did when its weight read 1/w). Measured 0.029 on lavapipe; the bound leaves
+/// room for another rasteriser's rounding.
+#[test]
+fn the_blend_follows_the_sorted_composite_on_dense_hair() {
+    use hikage_runtime::hair::HairUniform;
+    use hikage_scenes::hair_view::{Image, difference, hair_mask, render_view, renderers};
+    let Some(g) = gpu("the_blend_follows_the_sorted_composite_on_dense_hair") else { return };
+    let size = 128;
+    // The generated head at 10× its strand width: about a pixel wide at opacity 0.37.
+    let (dir, arrays) = layout_bundle("gpu_hair_blend", &synth::hair(6000, 16, 5), 10.0);
+    let cpu = CpuBundle::read(&dir.path("bundle")).unwrap();
+    let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
+    let (one, _) = renderers(&g, &gb, "h.strips", size, 1, 128).unwrap();
+    let frame = view_frame(&one, 0.0, 1.0, 0);
+    let gpu_view = render_view(&g, &one, &frame, size, 1);
+    let maps = read_opacity_maps(&g, &one);
+    let u = one.uniform(&frame);
+    let points = arrays.points_of_level(0);
+    let composite = |u: &HairUniform, how| -> Image {
+        let encode = |c: f32| {
+            let c = c.clamp(0.0, 1.0);
+            if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }
+        };
+        camera_reference(&arrays, u, &frame.light, &maps, ((size, size), points), how)
+            .iter()
+            .map(|p| [encode(p[0]), encode(p[1]), encode(p[2])])
+            .collect()
+    };
+    let sorted = composite(&u, Composite::Sorted);
+    let flat = composite(&HairUniform { oit_falloff: 0.0, ..u }, Composite::OrderIndependent);
+    let mask = hair_mask(&sorted, &gpu_view);
+    let (blend, _) = difference(&gpu_view, &sorted, &mask);
+    let (one_weight, _) = difference(&flat, &sorted, &mask);
+    eprintln!("falloff {:.2}: blend {blend:.4} RMS, one weight for all {one_weight:.4}", u.oit_falloff);
+    assert!(u.oit_falloff > 2.0, "dense hair: {}", u.oit_falloff);
+    assert!(blend < 0.035 && blend < 0.8 * one_weight, "blend {blend}, one weight {one_weight}");
+}
+
+/// Levels of detail keep the hair's coverage: each of the first four levels draws about half the
+/// strands of the one before, widened, and the mean brightness over the view (coverage ×
+/// shade over black) stays within 10% of every strand's.
+#[test]
+fn levels_of_detail_keep_the_coverage() {
+    use hikage_scenes::hair_view::{mean_luminance, render_view, renderers};
+    let Some(g) = gpu("levels_of_detail_keep_the_coverage") else { return };
+    let size = 128;
+    let (dir, _) = layout_bundle("gpu_hair_lod", &synth::hair(4000, 16, 7), 1.0);
+    let cpu = CpuBundle::read(&dir.path("bundle")).unwrap();
+    let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
+    let (one, _) = renderers(&g, &gb, "h.strips", size, 1, 128).unwrap();
+    let levels = one.levels();
+    assert!(levels.len() >= 4 && levels[3][0] == 500, "{levels:?}");
+    let full = mean_luminance(&render_view(&g, &one, &view_frame(&one, 0.0, 1.0, 0), size, 1));
+    for level in 1..4 {
+        let m = mean_luminance(&render_view(&g, &one, &view_frame(&one, 0.0, 1.0, level), size, 1));
+        eprintln!("level {level}: {} strands, {:+.2}%", levels[level as usize][0], 100.0 * (m / full - 1.0));
+        assert!((m / full - 1.0).abs() < 0.10, "level {level}: {m} against {full}");
+    }
+    // The automatic choice follows the hair's size on screen: 16 times farther, strands four
+    // times thinner on screen, three or four more levels dropped (or the last level).
+    let near = HairFrame { lod: HairLod::default(), ..view_frame(&one, 0.0, 1.0, 0) };
+    let s = one.settings();
+    let (lo, hi) = (Vec3::from(s.bounds_min), Vec3::from(s.bounds_max));
+    let (camera, eye) = orbit_camera(lo, hi, 0.0);
+    let away = eye + (eye - 0.5 * (lo + hi)) * 15.0;
+    let distant =
+        HairFrame { camera: camera * hikage_runtime::glam::Mat4::from_translation(eye - away), eye: away, ..near };
+    let (n, d) = (one.chosen_levels(&near).0, one.chosen_levels(&distant).0);
+    eprintln!("automatic level: {n} near, {d} 16× farther");
+    assert!(d >= (n + 3).min(levels.len() as u32 - 1) && d <= n + 4, "{n} near, {d} far");
 }

@@ -44,5 +44,23 @@ fn same_bytes_at_any_thread_count() {
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| build(&s, &sets));
     let three = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap().install(|| build(&s, &sets));
     assert_eq!(one, three);
-    assert_eq!(one.0.desc.check(one.0.bytes.len() as u64), Ok(()));
+    assert_eq!(one.mesh.desc.check(one.mesh.bytes.len() as u64), Ok(()));
+}
+
+/// The one-walk scoring of every candidate gives exactly what scoring each alone gives.
+#[test]
+fn scoring_candidates_together_equals_scoring_each() {
+    let s = synth::hair(800, 10, 3);
+    let base = StripSets::from_source(&s);
+    let view = LightView::new(&s, directions()[7], 64, &base);
+    let candidates: Vec<(f32, f32)> = (0..9)
+        .map(|k| base.shading.0 * 2f32.powi(k))
+        .map(|w| (w, hikage_bake::strands::auto::matching_alpha(&base, w)))
+        .collect();
+    let together = view.squared_errors(&s, &candidates);
+    for (k, &opacity) in candidates.iter().enumerate() {
+        let alone = view.squared_error(&s, &StripSets { opacity, ..base });
+        assert_eq!(together[k], alone, "candidate {k}");
+    }
+    assert!(together.iter().any(|e| e.0 > 0.0) && together[0] != together[8]);
 }

@@ -11,6 +11,10 @@ use crate::manifest::{Asset, AssetKind, MANIFEST_FILE, Manifest, Payload, Settin
 use crate::mesh::MeshData;
 use crate::names::{check_asset_id, is_safe_file_name};
 use crate::texture::{TextureData, TextureDesc, TextureDimension};
+use crate::version::FormatVersion;
+
+/// The format whose `Strands` meshes are point records; older strips are refused.
+pub(crate) const STRANDS_RECORDS_SINCE: FormatVersion = FormatVersion { major: 1, minor: 5 };
 
 /// An opened bundle: its directory and parsed, structurally checked manifest.
 ///
@@ -239,14 +243,29 @@ pub fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(String, S
                 }
                 texture_problems(a.kind, t, &a.settings).into_iter().for_each(&mut bad);
             }
+            // Strands of an older bundle have the strip layout: readable, not drawable
+            // ([`crate::validate()`] says so).
+            Payload::Mesh(_) if a.kind == AssetKind::Strands && manifest.format < STRANDS_RECORDS_SINCE => {}
+            Payload::Mesh(m) if a.kind == AssetKind::Strands && *m != crate::strands::strands_desc(m.vertex_count) => {
+                bad(format!(
+                    "strands must be the interleaved 32-byte point records of format {STRANDS_RECORDS_SINCE} with no indices (an older hikage's strips?): bake them again"
+                ))
+            }
             Payload::Mesh(m) => {
-                for name in a.kind.required_streams() {
-                    if m.attribute(name).is_none() {
-                        bad(format!("a {} mesh needs a `{name}` stream", a.kind.name()));
+                for s in a.kind.required_streams(manifest.format) {
+                    match m.attribute(s.name) {
+                        None => bad(format!("a {} mesh needs a `{}` stream", a.kind.name(), s.name)),
+                        Some(x) if x.component != s.component || x.components != s.components => bad(format!(
+                            "stream `{}` of a {} mesh must be {:?} × {}, found {:?} × {}",
+                            s.name,
+                            a.kind.name(),
+                            s.component,
+                            s.components,
+                            x.component,
+                            x.components
+                        )),
+                        Some(_) => {}
                     }
-                }
-                if a.kind == AssetKind::Strands && m.indices.is_none() {
-                    bad("a strands mesh needs an index stream".into());
                 }
             }
         }

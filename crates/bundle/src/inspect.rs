@@ -41,10 +41,10 @@ pub struct AssetSummary {
 pub struct StrandSet {
     /// `shading` or `opacity`.
     pub name: String,
-    /// Vertices drawn.
-    pub vertex_count: u64,
-    /// Indices drawn.
-    pub index_count: u64,
+    /// Point records the set is drawn from (both sets share them).
+    pub points: u64,
+    /// Levels of detail the records hold.
+    pub levels: usize,
     /// Full width of a default strand, world units.
     pub width: f32,
     /// Opacity of a default strand.
@@ -62,16 +62,10 @@ pub struct Summary {
     pub assets: Vec<AssetSummary>,
 }
 
-fn strand_sets(s: &StrandsSettings, vertices: u64, indices: u64) -> Vec<StrandSet> {
+fn strand_sets(s: &StrandsSettings, points: u64) -> Vec<StrandSet> {
     [("shading", s.shading), ("opacity", s.opacity)]
         .into_iter()
-        .map(|(name, (width, alpha))| StrandSet {
-            name: name.into(),
-            vertex_count: vertices,
-            index_count: indices,
-            width,
-            alpha,
-        })
+        .map(|(name, (width, alpha))| StrandSet { name: name.into(), points, levels: s.levels.len(), width, alpha })
         .collect()
 }
 
@@ -117,7 +111,7 @@ pub fn summarize(manifest: &Manifest) -> Summary {
                         index_count: indices,
                         settings,
                         sets: match &a.settings {
-                            Settings::Strands(st) => strand_sets(st, m.vertex_count as u64, indices),
+                            Settings::Strands(st) => strand_sets(st, m.vertex_count as u64),
                             _ => Vec::new(),
                         },
                     }

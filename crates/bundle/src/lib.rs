@@ -11,7 +11,8 @@
 //!   input hash that lets the baker skip unchanged work.
 //! - Textures are standard KTX2 files ([`ktx2_file`]): 2D, 2D-array and 3D, optionally zstd
 //!   supercompressed, readable by any KTX2 reader.
-//! - Meshes are little-endian buffers described by glTF-like accessors ([`mesh`]).
+//! - Meshes are little-endian buffers described by glTF-like accessors ([`mesh`]); hair strands
+//!   are one 32-byte record per point ([`strands`]).
 //! - [`BundleWriter`] writes payloads under content-derived names and replaces the manifest
 //!   atomically, so a bake killed at any point leaves the previous bundle valid.
 //! - [`Bundle::open`] reads a bundle back with every payload's size and hash checked;
@@ -35,6 +36,7 @@ pub mod manifest;
 pub mod mesh;
 mod names;
 pub mod relief;
+pub mod strands;
 pub mod texture;
 pub mod validate;
 mod version;
@@ -45,11 +47,12 @@ pub use error::BundleError;
 pub use limits::Limits;
 pub use manifest::{
     AmbientOcclusionSettings, Asset, AssetKind, CURVATURE_STREAMS, CurvatureSettings, EdgeMode, HeightfieldSettings,
-    HorizonSettings, MANIFEST_FILE, Manifest, MaxMipSettings, Payload, ReliefSettings, STRANDS_STREAMS, Settings,
-    StrandsSettings, Stream, TilePlacement,
+    HorizonSettings, MANIFEST_FILE, Manifest, MaxMipSettings, Payload, ReliefSettings, STRANDS_RECORD_BYTES,
+    STRANDS_STREAMS, Settings, StrandsSettings, Stream, TilePlacement,
 };
 pub use mesh::{Accessor, ComponentType, MeshData, MeshDesc};
 pub use names::{check_asset_id, is_valid_asset_id, payload_file_name};
+pub use strands::{StrandPoint, read_strand_points, strands_desc};
 pub use texture::{Supercompression, TextureData, TextureDesc, TextureDimension, TextureFormat};
 
 /// A payload's data in memory: what a baker hands the writer and a reader gets back.

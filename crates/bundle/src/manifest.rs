@@ -9,7 +9,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::error::BundleError;
-use crate::mesh::MeshDesc;
+use crate::mesh::{ComponentType, MeshDesc};
 use crate::texture::TextureDesc;
 use crate::version::FormatVersion;
 
@@ -55,12 +55,15 @@ pub enum AssetKind {
     /// A max-mip pyramid of a heightfield: a one-channel 2D texture whose level 0 holds the
     /// samples and each further mip level the largest of the 2×2 texels below.
     MaxMip,
-    /// Hair strips (seed 004): a mesh with two vertices per strand point, to be expanded into a
-    /// view-facing strip in the vertex shader. F32 streams `position` (3, the centre line),
-    /// `side` (1, −1 or +1), `tangent` (3, averaged at joints), `param` (1, 0 at the root to 1 at
-    /// the tip), `width` (2: shading set, opacity set; full widths in world units), `opacity` (2,
-    /// same order), `color` (3), and U32 triangle-list indices, 6 per segment. Both sets share
-    /// the vertices and indices; they differ only in the width and opacity read.
+    /// Hair strips (seed 004), since format 1.5: one 32-byte record per strand point (no
+    /// indices), drawn as one instanced quad per segment that the vertex shader widens into a
+    /// view-facing strip. Streams ([`STRANDS_STREAMS`], interleaved): `position` (F32 × 3, the
+    /// centre line), `tangent` (U16 × 2, octahedral unit vector, averaged at joints), `shape` (U16
+    /// × 2 unorm: shading width as a share of [`StrandsSettings::max_width`], shading opacity),
+    /// `color` (U8 × 4: sRGB-encoded RGB, 255), `strand` (U16 × 2: the point's index in its
+    /// strand, the strand's segment count; `param` = index / segments) and `strand_id` (U32, the
+    /// strand's index in the source file). Strands are stored in a fixed shuffled order so the
+    /// first strands of [`StrandsSettings::levels`] are an even thinning (levels of detail).
     Strands,
     /// A texture with no hikage-specific meaning (tests, user data).
     Texture,
@@ -84,10 +87,10 @@ impl AssetKind {
         }
     }
 
-    /// The names of the streams a mesh of this kind must have (a `Curvature` mesh from before
-    /// format 1.3 has no `tangent_u` and `tangent_v`).
-    pub fn required_streams(self) -> impl Iterator<Item = &'static str> {
-        self.streams().iter().filter(|s| s.since <= (1, 0)).map(|s| s.name)
+    /// The streams a mesh of this kind must have in a bundle of `format` (a `Curvature` mesh
+    /// from before format 1.3 has no `tangent_u` and `tangent_v`).
+    pub fn required_streams(self, format: FormatVersion) -> impl Iterator<Item = &'static Stream> {
+        self.streams().iter().filter(move |s| s.since <= (format.major as u16, format.minor as u16))
     }
 
     /// Lower-case name used by the CLI and JSON output.
@@ -106,19 +109,26 @@ impl AssetKind {
     }
 }
 
-/// A vertex stream of a kind's meshes: F32 values, `components` per vertex.
+/// A vertex stream of a kind's meshes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Stream {
     /// The accessor's name in the manifest.
     pub name: &'static str,
-    /// F32 components per vertex.
+    /// Scalar type of its components (integer types are read as unorm or uint as the kind's
+    /// documentation says).
+    pub component: ComponentType,
+    /// Components per vertex.
     pub components: u8,
     /// The format version that added it (older bundles may lack it).
     pub since: (u16, u16),
 }
 
 const fn stream(name: &'static str, components: u8) -> Stream {
-    Stream { name, components, since: (1, 0) }
+    Stream { name, component: ComponentType::F32, components, since: (1, 0) }
+}
+
+const fn strand_stream(name: &'static str, component: ComponentType, components: u8) -> Stream {
+    Stream { name, component, components, since: (1, 5) }
 }
 
 /// The streams of a `Curvature` mesh ([`AssetKind::Curvature`]), in payload order.
@@ -133,16 +143,20 @@ pub const CURVATURE_STREAMS: [Stream; 8] = [
     Stream { since: (1, 3), ..stream("tangent_v", 3) },
 ];
 
-/// The streams of a `Strands` mesh ([`AssetKind::Strands`]), in payload order.
-pub const STRANDS_STREAMS: [Stream; 7] = [
-    stream("position", 3),
-    stream("side", 1),
-    stream("tangent", 3),
-    stream("param", 1),
-    stream("width", 2),
-    stream("opacity", 2),
-    stream("color", 3),
+/// The streams of a `Strands` mesh ([`AssetKind::Strands`]), in record order: one interleaved
+/// record of [`STRANDS_RECORD_BYTES`] per strand point.
+pub const STRANDS_STREAMS: [Stream; 6] = [
+    strand_stream("position", ComponentType::F32, 3),
+    strand_stream("tangent", ComponentType::U16, 2),
+    strand_stream("shape", ComponentType::U16, 2),
+    strand_stream("color", ComponentType::U8, 4),
+    strand_stream("strand", ComponentType::U16, 2),
+    strand_stream("strand_id", ComponentType::U32, 1),
 ];
+
+/// Bytes of one strand point's record in a `Strands` mesh (the streams of [`STRANDS_STREAMS`]
+/// one after another).
+pub const STRANDS_RECORD_BYTES: u32 = 32;
 
 /// One payload file and everything needed to trust and use it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -283,18 +297,20 @@ settings_accessors! {
 }
 
 /// How hair strips were baked (seed 004). Widths and opacities are those of a strand with the
-/// source's default thickness and transparency; each strand's own values scale them.
+/// source's default thickness and transparency; each point's record carries its own shading
+/// width and opacity, and its opacity-set values are those times `opacity / shading`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct StrandsSettings {
     /// Strands.
     pub strands: u32,
-    /// Points (each gives two vertices).
+    /// Points (one record each).
     pub points: u32,
     /// Shading set: full width (world units) and opacity.
     pub shading: (f32, f32),
     /// Opacity set: full width (world units) and opacity.
     pub opacity: (f32, f32),
-    /// Width at the tip as a share lost: width × (1 − taper × param).
+    /// Width at the tip as a share lost: width × (1 − taper × param). The renderer applies it
+    /// (and may override it); the records hold untapered widths.
     pub taper: f32,
     /// Opacity-map resolution the opacity set was chosen for (`auto`), if it was.
     pub auto_resolution: Option<u32>,
@@ -302,6 +318,19 @@ pub struct StrandsSettings {
     pub bounds_min: [f32; 3],
     /// See `bounds_min`.
     pub bounds_max: [f32; 3],
+    /// The widest shading width of any point before taper (world units): a record's
+    /// `shape.x` is its width as a share of this (since format 1.5).
+    #[serde(default)]
+    pub max_width: f32,
+    /// Levels of detail, finest first: `[strands, points]` of the first strands in the
+    /// records that level draws, each level about half the strands of the one before
+    /// (since format 1.5).
+    #[serde(default)]
+    pub levels: Vec<[u32; 2]>,
+    /// The shading set's area weighted by opacity: Σ over segments of length × width ×
+    /// opacity (world units², since format 1.5), the hair's density for the camera blend.
+    #[serde(default)]
+    pub opacity_area: f32,
 }
 
 /// How a set of relief depth maps was baked (seed 003).

@@ -80,6 +80,19 @@ pub fn validate_with_limits(dir: &Path, limits: Limits) -> Result<Report, Bundle
             });
         }
     }
+    let format = bundle.manifest().format;
+    if format < crate::bundle::STRANDS_RECORDS_SINCE {
+        for asset in bundle.manifest().assets.iter().filter(|a| a.kind == crate::AssetKind::Strands) {
+            report.problems.push(Problem {
+                asset: asset.id.clone(),
+                file: manifest_path.clone(),
+                message: format!(
+                    "strands of a format {format} bundle cannot be drawn by this hikage (point records since {}): bake them again",
+                    crate::bundle::STRANDS_RECORDS_SINCE
+                ),
+            });
+        }
+    }
     Ok(report)
 }
 

@@ -17,8 +17,10 @@ impl FormatVersion {
     /// The version this crate writes and reads. 1.1 added the `Horizon`, `AmbientOcclusion`
     /// and `Curvature` kinds; 1.2 the `Relief` and `MaxMip` kinds; 1.3 the `tangent_u` and
     /// `tangent_v` streams of curvature meshes; 1.4 the `tile` placement of heightfields and
-    /// horizon textures baked in tiles.
-    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 4 };
+    /// horizon textures baked in tiles; 1.5 the compact `Strands` records (one 32-byte record
+    /// per point, levels of detail) in place of the expanded strips, which readers no longer
+    /// take.
+    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 5 };
 }
 
 impl fmt::Display for FormatVersion {

@@ -150,6 +150,7 @@ pub(crate) struct PipelineDesc<'a> {
     pub targets: &'a [Option<wgpu::ColorTargetState>],
     pub depth: Option<wgpu::DepthStencilState>,
     pub cull_mode: Option<wgpu::Face>,
+    pub topology: wgpu::PrimitiveTopology,
 }
 
 /// The one way a component builds a render pipeline: `desc` over `module`, with `layout` at
@@ -170,7 +171,7 @@ pub(crate) fn render_pipeline(
             compilation_options: Default::default(),
             buffers: desc.buffers,
         },
-        primitive: wgpu::PrimitiveState { cull_mode: desc.cull_mode, ..Default::default() },
+        primitive: wgpu::PrimitiveState { cull_mode: desc.cull_mode, topology: desc.topology, ..Default::default() },
         depth_stencil: desc.depth,
         multisample: Default::default(),
         fragment: Some(wgpu::FragmentState {
@@ -239,6 +240,7 @@ impl Program {
                     targets: &targets(options.color.clone(), options.visibility_format),
                     depth: options.depth_format.map(depth_state),
                     cull_mode: options.cull_mode,
+                    topology: wgpu::PrimitiveTopology::TriangleList,
                 },
             )
         })?;

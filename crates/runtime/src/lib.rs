@@ -186,7 +186,9 @@ mod wgsl_tests {
                 "hair",
                 "HairUniform",
                 layout!(HairUniform; light, light_inverse, bounds_min, bounds_max, camera, eye, to_light, light_color,
-                    ambient, step, opacity_set, resolution, specular_power, specular, layer_rule, lookup),
+                    ambient, root_tint, tip_tint, step, opacity_set, resolution, specular_power, specular, layer_rule,
+                    lookup, max_width, width_ratio, alpha_ratio, taper, min_pixel_width, viewport, depth_range,
+                    camera_widen, light_widen, color_variation, oit_falloff),
             ),
         ];
         let sources = sources();

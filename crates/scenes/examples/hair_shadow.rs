@@ -22,7 +22,7 @@ use hikage_runtime::glam::camera::rh::proj::directx;
 use hikage_runtime::glam::camera::rh::view::{look_at_mat4, look_to_mat4};
 use hikage_runtime::glam::{Mat4, Vec3};
 use hikage_runtime::hair::reference::StripArrays;
-use hikage_runtime::hair::{HairFrame, HairLight, HairOptions, HairRenderer, HairSet, LayerRule, Lookup};
+use hikage_runtime::hair::{HairFrame, HairLight, HairLod, HairOptions, HairRenderer, HairSet, LayerRule, Lod, Lookup};
 use hikage_runtime::{CpuBundle, GpuBundle, wgpu};
 use hikage_scenes::hair_scene::{
     Composite, Ground, HairBlend, camera_reference, high_frequency_energy, layer_errors, read_opacity_maps,
@@ -34,6 +34,8 @@ const RESOLUTION: u32 = 256;
 /// The reference's resolution, as a multiple of the test's.
 const REFERENCE_FACTOR: u32 = 8;
 const GROUND: u32 = 256;
+/// Every strand, in both passes: the shadow figures are of the full hair.
+const FULL: HairLod = HairLod { camera: Lod::Level(0), light: Lod::Level(0) };
 
 /// The head at the seed's widths and the combed strands, baked into `dir/bundle` from
 /// `data/head.hair` and strands generated here.
@@ -103,8 +105,12 @@ fn shadow_rows(
     ];
     let mut images = Vec::new();
     for (name, renderer, set, lookup) in variants {
-        let frame =
-            HairFrame { set, lookup, ..HairFrame::new(Mat4::IDENTITY, Vec3::ZERO, renderer.light(stage.to_light)) };
+        let frame = HairFrame {
+            set,
+            lookup,
+            lod: FULL,
+            ..HairFrame::new(Mat4::IDENTITY, Vec3::ZERO, renderer.light(stage.to_light))
+        };
         renderer.update(&g.queue, &frame);
         let mut encoder = g.device.create_command_encoder(&Default::default());
         renderer.render_opacity_maps(&mut encoder);
@@ -156,20 +162,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     println!("| layout | rule | RMS error | max error |");
     println!("|---|---|---|---|");
-    for (layout, bundle, id) in [
-        ("sample head", &cpu, "head.strips"),
-        ("head at the seed's widths", &extra, "head_paper.strips"),
-        ("straight combed strands", &extra, "combed.strips"),
+    for (layout, bundle, gpu, id) in [
+        ("sample head", &cpu, &gb, "head.strips"),
+        ("head at the seed's widths", &extra, &extra_gb, "head_paper.strips"),
+        ("straight combed strands", &extra, &extra_gb, "combed.strips"),
     ] {
         let asset = bundle.asset(id).ok_or("missing strands")?;
-        let strips = StripArrays::from_mesh(asset.mesh().ok_or("not a mesh")?).ok_or("not a strands mesh")?;
         let settings = asset.asset.settings.strands().ok_or("not strands")?;
+        let strips = StripArrays::from_mesh(asset.mesh().ok_or("not a mesh")?, settings).ok_or("not a strands mesh")?;
+        let options = HairOptions { resolution: RESOLUTION, ..HairOptions::new(COLOR_FORMAT, (8, 8)) };
+        let renderer = HairRenderer::new(&g.device, &g.queue, gpu, id, &options)?;
         let (lo, hi) = (Vec3::from(settings.bounds_min), Vec3::from(settings.bounds_max));
         for (rule, name) in
             [(LayerRule::Box, "box range / 10 everywhere"), (LayerRule::PerTexel, "per texel (the seed's)")]
         {
             let light = HairLight { rule, ..HairLight::for_bounds(lo, hi, Stage::new(lo, hi).to_light) };
-            let (rms, max) = layer_errors(&strips, &light, HairSet::Opacity, RESOLUTION);
+            let frame = HairFrame { lod: FULL, ..HairFrame::new(Mat4::IDENTITY, Vec3::ZERO, light) };
+            let (rms, max) = layer_errors(&strips, &renderer.uniform(&frame), &light, strips.points_of_level(0));
             println!("| {layout} | {name} | {rms:.4} | {max:.3} |");
         }
     }
@@ -206,15 +215,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     // The camera's blend: the hair alone over black, the seed's opacity maps, against the exact
     // composite of the same fragments sorted by depth on the CPU.
-    let frame = HairFrame::new(camera, eye, paper.light(stage.to_light));
+    let frame = HairFrame { lod: FULL, ..HairFrame::new(camera, eye, paper.light(stage.to_light)) };
     paper.update(&g.queue, &frame);
     let uniform = paper.uniform(&frame);
-    let strips = StripArrays::from_mesh(cpu.asset("head.strips").and_then(|a| a.mesh()).ok_or("no head.strips")?)
-        .ok_or("not a strands mesh")?;
+    let head = cpu.asset("head.strips").ok_or("no head.strips")?;
+    let strips = StripArrays::from_mesh(head.mesh().ok_or("not a mesh")?, paper.settings()).ok_or("not strands")?;
     let black = wgpu::Color::BLACK;
     let oit = render_frame(&g, &paper, None, HairBlend::OrderIndependent, (w, h), black);
     let maps = read_opacity_maps(&g, &paper);
-    let sorted = camera_reference(&strips, &uniform, &frame.light, &maps, camera, eye, (w, h), Composite::Sorted);
+    let sorted = camera_reference(
+        &strips,
+        &uniform,
+        &frame.light,
+        &maps,
+        ((w, h), strips.points_of_level(0)),
+        Composite::Sorted,
+    );
     println!();
     println!(
         "| camera draws the shading set | vs the sorted composite: mean abs error | RMS | pixels off by > 0.05 | frame time on this adapter (best of 3) |"

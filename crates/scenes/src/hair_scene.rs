@@ -234,11 +234,15 @@ pub fn reference_shadow(
     (resolution, size): (u32, (u32, u32)),
     factor: u32,
 ) -> Result<Vec<f32>, hikage_runtime::RuntimeError> {
-    use hikage_runtime::hair::{HairFrame, HairOptions, HairSet};
+    use hikage_runtime::hair::{HairFrame, HairLod, HairOptions, HairSet, Lod};
     let options = HairOptions { resolution: resolution * factor, ..HairOptions::new(COLOR_FORMAT, (8, 8)) };
     let renderer = HairRenderer::new(&g.device, &g.queue, gpu, strips, &options)?;
-    let frame =
-        HairFrame { set: HairSet::Shading, ..HairFrame::new(Mat4::IDENTITY, Vec3::ZERO, renderer.light(to_light)) };
+    let lod = HairLod { camera: Lod::Level(0), light: Lod::Level(0) };
+    let frame = HairFrame {
+        set: HairSet::Shading,
+        lod,
+        ..HairFrame::new(Mat4::IDENTITY, Vec3::ZERO, renderer.light(to_light))
+    };
     renderer.update(&g.queue, &frame);
     let mut encoder = g.device.create_command_encoder(&Default::default());
     renderer.render_opacity_maps(&mut encoder);
@@ -270,22 +274,25 @@ pub fn shadow_errors(v: &[f32], reference: &[f32]) -> (f64, f64, f64) {
 }
 
 /// The error the layers put into the hair's own shadow: at every strand point, the visibility
-/// through the layered maps of `set` against the exact cumulative opacity of every fragment in
-/// front of it in the same texel (the maps without layering), on the CPU. RMS and largest.
+/// through the layered maps of the light passes `uniform` sets up (its set, its level's first
+/// `points` records) against the exact cumulative opacity of every fragment in front of it in
+/// the same texel (the maps without layering), on the CPU. RMS and largest.
 pub fn layer_errors(
     strips: &hikage_runtime::hair::reference::StripArrays,
+    uniform: &hikage_runtime::hair::HairUniform,
     light: &hikage_runtime::hair::HairLight,
-    set: hikage_runtime::hair::HairSet,
-    resolution: u32,
+    points: u32,
 ) -> (f64, f64) {
-    use hikage_runtime::hair::reference::{accumulate_cpu, for_each_light_fragment, texel_visibility};
+    use hikage_runtime::hair::reference::{Facing, accumulate_cpu, expand, for_each_light_fragment, texel_visibility};
+    let resolution = uniform.resolution;
     let r = resolution as usize;
+    let expanded = expand(strips, uniform, Facing::Light, points);
     let mut fragments: Vec<Vec<(f32, f32)>> = vec![Vec::new(); r * r];
-    for_each_light_fragment(strips, light, set, resolution, |i, z, a| fragments[i].push((z, a)));
-    let (z0, layers) = accumulate_cpu(strips, light, set, resolution);
+    for_each_light_fragment(&expanded, light, resolution, |i, z, a| fragments[i].push((z, a)));
+    let (z0, layers) = accumulate_cpu(&expanded, light, resolution);
     let (mut sq, mut max, mut n) = (0.0f64, 0.0f64, 0usize);
-    for &p in &strips.position {
-        let c = light.view_proj * p.extend(1.0);
+    for point in &strips.points {
+        let c = light.view_proj * Vec3::from(point.position).extend(1.0);
         let ndc = c.truncate() / c.w;
         let (x, y) = (((ndc.x * 0.5 + 0.5) * r as f32).floor(), ((0.5 - ndc.y * 0.5) * r as f32).floor());
         if x < 0.0 || y < 0.0 || x >= r as f32 || y >= r as f32 {
@@ -347,45 +354,44 @@ pub enum Composite {
     Opaque,
 }
 
-/// The hair seen by `camera` from `eye`, on the CPU: every fragment of the shading strips
-/// (expanded toward the eye), shaded by the CPU reference with the opacity maps `maps` (read
-/// back from the GPU, or from `accumulate_cpu`), composited by `how` over black. Per pixel:
-/// linear RGB (premultiplied) and coverage.
-#[expect(clippy::too_many_arguments, reason = "the CPU camera pass takes what the GPU pass binds")]
+/// The hair seen by the camera of `uniform`, on the CPU: every fragment of the first `points`
+/// records' strips (expanded toward the eye, widened as the vertex shader widens them), shaded
+/// by the CPU reference with the opacity maps `maps` (read back from the GPU, or from
+/// `accumulate_cpu`), composited by `how` over black. Per pixel: linear RGB (premultiplied)
+/// and coverage.
 pub fn camera_reference(
     strips: &hikage_runtime::hair::reference::StripArrays,
     uniform: &hikage_runtime::hair::HairUniform,
     light: &hikage_runtime::hair::HairLight,
     maps: &(Vec<f32>, Vec<[f32; 4]>),
-    camera: Mat4,
-    eye: Vec3,
-    size: (u32, u32),
+    (size, points): ((u32, u32), u32),
     how: Composite,
 ) -> Vec<[f32; 4]> {
     use hikage_runtime::hair::Lookup;
-    use hikage_runtime::hair::reference::{expand, hair_kajiya_kay, hair_oit_weight, hair_visibility};
+    use hikage_runtime::hair::reference::{
+        Facing, coverage, expand, hair_kajiya_kay, hair_oit_weight, hair_visibility,
+    };
     let lookup = if uniform.lookup == Lookup::Bilinear.code() { Lookup::Bilinear } else { Lookup::Nearest };
-    let world: Vec<Vec3> = (0..strips.position.len())
-        .map(|v| {
-            let p = strips.position[v];
-            expand(p, strips.side[v], strips.tangent[v], strips.width[v][0], (eye - p).normalize())
-        })
-        .collect();
-    let clip: Vec<glam::Vec4> = world.iter().map(|w| camera * w.extend(1.0)).collect();
+    let facing = if how == Composite::Opaque { Facing::CameraOpaque } else { Facing::Camera };
+    let e = expand(strips, uniform, facing, points);
+    let camera = Mat4::from_cols_array_2d(&uniform.camera);
+    let eye = Vec3::from_slice(&uniform.eye[..3]);
+    let clip: Vec<glam::Vec4> = e.world.iter().map(|w| camera * w.extend(1.0)).collect();
     let to_light = Vec3::from_slice(&uniform.to_light[..3]);
     // (depth, premultiplied colour, opacity, weight) per fragment, per pixel.
     let mut pixels: Vec<Vec<(f32, Vec3, f32, f32)>> = vec![Vec::new(); (size.0 * size.1) as usize];
-    crate::raster::for_each_fragment(&clip, &strips.indices, size, false, |i, t, q, z| {
-        let v = |k: usize| strips.indices[3 * t + k] as usize;
+    crate::raster::for_each_fragment(&clip, &e.indices, size, false, |i, t, q, z| {
+        let v = |k: usize| e.indices[3 * t + k] as usize;
         let mix3 = |f: &dyn Fn(usize) -> Vec3| f(v(0)) * q[0] + f(v(1)) * q[1] + f(v(2)) * q[2];
-        let p = mix3(&|k| world[k]);
-        let tangent = mix3(&|k| strips.tangent[k]).normalize();
-        let base = mix3(&|k| strips.color[k]);
-        let alpha = (0..3).map(|k| strips.opacity[v(k)][0] * q[k]).sum::<f32>();
-        let view_depth = (0..3).map(|k| clip[v(k)].w * q[k]).sum::<f32>();
+        let mix1 = |f: &dyn Fn(usize) -> f32| f(v(0)) * q[0] + f(v(1)) * q[1] + f(v(2)) * q[2];
+        let p = mix3(&|k| e.world[k]);
+        let tangent = mix3(&|k| e.tangent[k]).normalize();
+        let base = mix3(&|k| e.color[k]);
+        let alpha = mix1(&|k| e.alpha[k]) * coverage(mix1(&|k| e.across_px[k]), mix1(&|k| e.footprint[k]));
+        let view_depth = mix1(&|k| e.view_depth[k]);
         let vis = hair_visibility(light, (&maps.0, &maps.1), uniform.resolution, lookup, p);
         let c = hair_kajiya_kay(uniform, tangent, to_light, (eye - p).normalize(), base, vis);
-        pixels[i].push((z, c, alpha, hair_oit_weight(view_depth, alpha)));
+        pixels[i].push((z, c, alpha, hair_oit_weight(uniform, view_depth, alpha)));
     });
     pixels
         .into_iter()

@@ -24,8 +24,14 @@ pub struct Headless {
 
 impl Headless {
     /// Opens the first adapter wgpu offers (software adapters included) and a device with the
-    /// adapter's limits.
+    /// adapter's limits and, where the adapter has it, `FLOAT32_BLENDABLE` (as a game asking
+    /// for the best hair blend would).
     pub fn new() -> Result<Headless, String> {
+        Headless::with_features(wgpu::Features::FLOAT32_BLENDABLE)
+    }
+
+    /// Like [`Headless::new`], with the features of `wanted` the adapter has and no others.
+    pub fn with_features(wanted: wgpu::Features) -> Result<Headless, String> {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let adapter = block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
             power_preference: wgpu::PowerPreference::None,
@@ -36,7 +42,7 @@ impl Headless {
         .map_err(|e| format!("no GPU device: {e}"))?;
         let (device, queue) = block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("hikage headless"),
-            required_features: wgpu::Features::empty(),
+            required_features: wanted & adapter.features(),
             required_limits: adapter.limits(),
             ..Default::default()
         }))

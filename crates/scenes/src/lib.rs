@@ -8,8 +8,10 @@
 //! - [`raster`]: a CPU rasteriser, so a test can run a shader's CPU reference per pixel.
 //! - [`horizon_sphere`], [`relief_plane`], [`shadow_scene`], [`hair_scene`]: analytic reference
 //!   scenes whose every pixel a CPU function reproduces, for the GPU tests and the figures.
+//! - [`hair_view`]: the hair in the camera against the same renderer supersampled.
 
 pub mod hair_scene;
+pub mod hair_view;
 pub mod headless;
 pub mod horizon_sphere;
 pub mod png;

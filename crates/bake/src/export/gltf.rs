@@ -1,9 +1,13 @@
 //! Writing a mesh asset as binary glTF 2.0 (`.glb`) for engines and viewers.
 //!
 //! Streams map to glTF attributes: `position` → `POSITION` (with the min/max glTF requires),
-//! `normal` → `NORMAL`, `color` → `COLOR_0`, `uv` → `TEXCOORD_0`; every other stream becomes a custom attribute
-//! named `_` + its upper-cased name (`_WIDTH`, `_OPACITY`, `_PARAM`, …). Indices are
-//! `UNSIGNED_INT` triangles. One buffer, one buffer view per stream, all 4-byte aligned.
+//! `normal` → `NORMAL`, a 4-component `tangent` → `TANGENT`, `color` → `COLOR_0`, `uv` →
+//! `TEXCOORD_0`; every other stream becomes a custom attribute named `_` + its upper-cased name
+//! (`_CURVATURE`, `_STRAND_ID`, …). Indices are `UNSIGNED_INT` triangles. One buffer, one buffer
+//! view per stream, all 4-byte aligned.
+//!
+//! A strands asset is written as its ribbons ([`crate::strands::ribbons`]): flat, non-degenerate
+//! strips with tangents, for tools that do not widen strips in a shader.
 
 use std::path::Path;
 
@@ -12,9 +16,10 @@ use serde_json::json;
 
 use crate::error::BakeError;
 
-fn attribute_name(stream: &str) -> String {
+fn attribute_name(stream: &str, components: u8) -> String {
     match stream {
         "position" => "POSITION".into(),
+        "tangent" if components == 4 => "TANGENT".into(),
         "normal" => "NORMAL".into(),
         "color" => "COLOR_0".into(),
         "uv" => "TEXCOORD_0".into(),
@@ -63,7 +68,7 @@ pub fn glb(mesh: &MeshData, generator: &str) -> Result<Vec<u8>, String> {
             acc["max"] = json!(hi);
         }
         views.push(json!({ "buffer": 0, "byteOffset": bin.len(), "byteLength": len, "target": 34962 }));
-        attributes.insert(attribute_name(&a.name), json!(accessors.len()));
+        attributes.insert(attribute_name(&a.name, a.components), json!(accessors.len()));
         accessors.push(acc);
         bin.extend_from_slice(data);
     }
@@ -111,7 +116,13 @@ pub fn glb(mesh: &MeshData, generator: &str) -> Result<Vec<u8>, String> {
 
 /// Writes mesh asset `id` of `bundle` to `out` as GLB; returns (vertices, indices).
 pub fn export_gltf(bundle: &Bundle, id: &str, out: &Path) -> Result<(u32, u32), BakeError> {
-    let mesh = bundle.read_mesh(id)?;
+    let mut mesh = bundle.read_mesh(id)?;
+    if let Some(settings) = bundle.asset(id)?.settings.strands() {
+        let points = hikage_bundle::read_strand_points(&mesh, settings).ok_or_else(|| {
+            BakeError::input(out, Some(format!("asset `{id}`")), "strand records of an unknown layout")
+        })?;
+        mesh = crate::strands::ribbons::build(&points, settings.taper);
+    }
     let bytes =
         glb(&mesh, hikage_bundle::GENERATOR).map_err(|m| BakeError::input(out, Some(format!("asset `{id}`")), m))?;
     super::write_via_temp(out, &bytes)?;

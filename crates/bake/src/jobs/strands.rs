@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use hikage_bundle::{Settings, StrandsSettings};
+use hikage_bundle::{Settings, read_strand_points};
 use serde::{Deserialize, Deserializer, Serialize};
 
 use super::source::deserialize_flat;
@@ -11,8 +11,9 @@ use crate::error::BakeError;
 use crate::strands::strips::{self, StripSets};
 use crate::strands::{self, Strands, auto, ribbons};
 
-/// Version of the strands job; part of the input hash.
-pub const ALGORITHM_VERSION: u32 = 2;
+/// Version of the strands job; part of the input hash. 3: point records (format 1.5), colour
+/// settings, the visibility rule.
+pub const ALGORITHM_VERSION: u32 = 3;
 
 /// A strands bake. Asset ids: `<id>.strips`, and `<id>.ribbons` with `ribbons`.
 ///
@@ -63,6 +64,27 @@ pub struct StrandsOptions {
     /// Also bake a fixed-orientation ribbon mesh (minimum-twist frames).
     #[cfg_attr(feature = "clap", arg(long))]
     pub ribbons: bool,
+    /// Linear RGB (0–1) of every strand, in place of the file's colours.
+    #[cfg_attr(feature = "clap", arg(long, value_name = "R,G,B", value_parser = parse_rgb))]
+    pub color: Option<[f32; 3]>,
+    /// Linear RGB at the root: a gradient toward the tip's (`tip_color`, else `color`, else
+    /// the file's), in place of the file's colours.
+    #[cfg_attr(feature = "clap", arg(long, value_name = "R,G,B", value_parser = parse_rgb))]
+    pub root_color: Option<[f32; 3]>,
+    /// Linear RGB at the tip (see `root_color`).
+    #[cfg_attr(feature = "clap", arg(long, value_name = "R,G,B", value_parser = parse_rgb))]
+    pub tip_color: Option<[f32; 3]>,
+}
+
+/// `R,G,B` on the command line.
+#[cfg(feature = "clap")]
+fn parse_rgb(text: &str) -> Result<[f32; 3], String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let [r, g, b] = parts.as_slice() else {
+        return Err(format!("expected three numbers R,G,B, found {text:?}"));
+    };
+    let num = |t: &str| t.parse::<f32>().map_err(|e| format!("{t:?}: {e}"));
+    Ok([num(r)?, num(g)?, num(b)?])
 }
 
 impl<'de> Deserialize<'de> for StrandsJob {
@@ -101,6 +123,88 @@ impl StrandsJob {
         );
         StripSets { shading, opacity, taper: self.options.taper }
     }
+
+    /// The colour settings applied to `s`: with any of `color`, `root_color`, `tip_color`, every
+    /// point's colour is the root's mixed toward the tip's by `param`, each end the setting
+    /// given for it, else `color`, else the file's colour at that point.
+    pub fn apply_colors(&self, s: &mut Strands) {
+        let o = &self.options;
+        if o.color.is_none() && o.root_color.is_none() && o.tip_color.is_none() {
+            return;
+        }
+        let starts = strips::strand_starts(s);
+        let mut colors = Vec::with_capacity(s.points.len());
+        for (strand, &segments) in s.segments.iter().enumerate() {
+            for i in 0..=segments as usize {
+                let own = s.color.as_ref().map_or(s.default_color, |c| c[starts[strand] + i]);
+                let root = o.root_color.or(o.color).unwrap_or(own);
+                let tip = o.tip_color.or(o.color).unwrap_or(own);
+                let t = if segments == 0 { 0.0 } else { i as f32 / segments as f32 };
+                colors.push(std::array::from_fn(|k| root[k] + (tip[k] - root[k]) * t));
+            }
+        }
+        s.color = Some(colors);
+    }
+
+    /// The rule for strands no one could see: refused with the value, where it came from and
+    /// the settings that fix it — no width, wider than a tenth of the hair's bounding box, or
+    /// no opacity at any point.
+    fn check_visible(&self, s: &Strands, sets: &StripSets, path: &Path) -> Result<(), BakeError> {
+        let (width_from, alpha_from) = (
+            match (self.options.shading_width, &s.thickness) {
+                (Some(_), _) => "the shading_width setting",
+                (None, Some(_)) => "the per-point thickness",
+                (None, None) => "the header's default thickness",
+            },
+            match (self.options.shading_alpha, &s.transparency) {
+                (Some(_), _) => "the shading_alpha setting",
+                (None, Some(_)) => "the per-point transparency",
+                (None, None) => "the header's default transparency",
+            },
+        );
+        let thick_ref = s.default_thickness;
+        let ratio = |p: usize| match (&s.thickness, thick_ref > 0.0) {
+            (Some(t), true) => t[p] / thick_ref,
+            _ => 1.0,
+        };
+        let widest = (0..s.points.len()).map(|p| sets.shading.0 * ratio(p)).fold(0.0f32, f32::max);
+        let (mut lo, mut hi) = (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY));
+        for &p in &s.points {
+            (lo, hi) = (lo.min(p.into()), hi.max(p.into()));
+        }
+        let diagonal = if s.points.is_empty() { 0.0 } else { (hi - lo).length() };
+        let fix = "set shading_width (world units) and shading_alpha in the job";
+        if !(widest > 0.0 && widest.is_finite()) {
+            return Err(BakeError::input(
+                path,
+                Some(width_from.into()),
+                format!("strands {widest} wide cannot be seen; {fix}"),
+            ));
+        }
+        if diagonal > 0.0 && widest > 0.1 * diagonal {
+            return Err(BakeError::input(
+                path,
+                Some(width_from.into()),
+                format!(
+                    "strands up to {widest} wide are wider than a tenth of the hair's {diagonal:.4}-wide bounding box (expected hair thinner than the head it grows on); {fix}"
+                ),
+            ));
+        }
+        let alpha_ref = 1.0 - s.default_transparency;
+        let visible = (0..s.points.len()).any(|p| {
+            let own = 1.0 - s.transparency.as_ref().map_or(s.default_transparency, |t| t[p]);
+            let k = if alpha_ref > 0.0 { own / alpha_ref } else { 1.0 };
+            sets.shading.1 * k > 0.0
+        });
+        if !s.points.is_empty() && !visible {
+            return Err(BakeError::input(
+                path,
+                Some(alpha_from.into()),
+                format!("every strand has opacity 0 (shading opacity {}); {fix}", sets.shading.1),
+            ));
+        }
+        Ok(())
+    }
 }
 
 impl Baker for StrandsJob {
@@ -130,14 +234,17 @@ impl Baker for StrandsJob {
 
     fn canonical_settings(&self) -> String {
         format!(
-            "shading=({:?},{:?});opacity=({:?},{:?});auto={:?};taper={:?};ribbons={}",
+            "shading=({:?},{:?});opacity=({:?},{:?});auto={:?};taper={:?};ribbons={};color={:?};root={:?};tip={:?}",
             self.options.shading_width,
             self.options.shading_alpha,
             self.options.opacity_width,
             self.options.opacity_alpha,
             self.options.auto,
             self.options.taper,
-            self.options.ribbons
+            self.options.ribbons,
+            self.options.color,
+            self.options.root_color,
+            self.options.tip_color
         )
     }
 
@@ -158,6 +265,17 @@ impl Baker for StrandsJob {
                 return Err(format!("{name} must be in (0, 1], found {a}"));
             }
         }
+        for (name, c) in [
+            ("color", self.options.color),
+            ("root_color", self.options.root_color),
+            ("tip_color", self.options.tip_color),
+        ] {
+            if let Some(c) = c
+                && !c.iter().all(|x| (0.0..=1.0).contains(x))
+            {
+                return Err(format!("{name} must be linear RGB in [0, 1], found {c:?}"));
+            }
+        }
         if !(0.0..=1.0).contains(&self.options.taper) {
             return Err(format!("taper must be in [0, 1], found {}", self.options.taper));
         }
@@ -173,41 +291,75 @@ impl Baker for StrandsJob {
     }
 
     fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
-        strands::load(&ctx.base_dir.join(&self.input)).map(|_| ())
+        let path = ctx.base_dir.join(&self.input);
+        let s = strands::load(&path)?;
+        self.check_visible(&s, &self.sets(&s), &path)
     }
 
     fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
         (ctx.progress)(0, 2);
-        let s = strands::load(&ctx.base_dir.join(&self.input))?;
+        let path = ctx.base_dir.join(&self.input);
+        let mut s = strands::load(&path)?;
+        self.apply_colors(&mut s);
         let mut sets = self.sets(&s);
+        self.check_visible(&s, &sets, &path)?;
         if let Some(resolution) = self.options.auto {
             sets = auto::choose(&s, &sets, resolution).0;
         }
         (ctx.progress)(1, 2);
-        let (mesh, lo, hi) = strips::build(&s, &sets);
-        let settings = StrandsSettings {
-            strands: s.segments.len() as u32,
-            points: s.points.len() as u32,
-            shading: sets.shading,
-            opacity: sets.opacity,
-            taper: sets.taper,
-            auto_resolution: self.options.auto,
-            bounds_min: lo,
-            bounds_max: hi,
-        };
+        let strips = strips::build(&s, &sets);
+        let settings = strips.settings(&s, &sets, self.options.auto);
+        let ribbons = self.options.ribbons.then(|| {
+            let points = read_strand_points(&strips.mesh, &settings).expect("the records were just built");
+            ribbons::build(&points, sets.taper)
+        });
         let mut out = vec![BakedAsset {
             id: self.strips_id(),
-            settings: Settings::Strands(settings.clone()),
-            payload: mesh.into(),
+            settings: Settings::Strands(settings),
+            payload: strips.mesh.into(),
         }];
-        if self.options.ribbons {
-            out.push(BakedAsset {
-                id: self.ribbons_id(),
-                settings: Settings::Generic,
-                payload: ribbons::build(&s, &sets).into(),
-            });
+        if let Some(mesh) = ribbons {
+            out.push(BakedAsset { id: self.ribbons_id(), settings: Settings::Generic, payload: mesh.into() });
         }
         (ctx.progress)(2, 2);
         Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Colour settings: a root and a tip colour make a gradient along each strand by its
+    /// param; `color` alone paints every point; the file's colours stay without either.
+    #[test]
+    fn colour_settings_make_a_root_to_tip_gradient() {
+        let strands = || Strands {
+            segments: vec![2, 0],
+            points: vec![[0.0; 3], [0.0, 1.0, 0.0], [0.0, 2.0, 0.0], [1.0, 0.0, 0.0]],
+            thickness: None,
+            transparency: None,
+            color: Some(vec![[0.1, 0.2, 0.3]; 4]),
+            default_thickness: 0.01,
+            default_transparency: 0.5,
+            default_color: [0.5; 3],
+        };
+        let mut job = StrandsJob::new("h", "h.hair".into());
+        let mut s = strands();
+        job.apply_colors(&mut s);
+        assert_eq!(s, strands(), "no setting leaves the file's colours");
+        job.options.root_color = Some([1.0, 0.0, 0.0]);
+        job.options.tip_color = Some([0.0, 0.0, 1.0]);
+        job.apply_colors(&mut s);
+        assert_eq!(s.color.unwrap(), vec![[1.0, 0.0, 0.0], [0.5, 0.0, 0.5], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]);
+        let mut s = strands();
+        job.options = StrandsOptions { color: Some([0.2, 0.4, 0.6]), tip_color: Some([1.0; 3]), ..Default::default() };
+        job.apply_colors(&mut s);
+        let got = s.color.unwrap();
+        for (p, want) in [[0.2, 0.4, 0.6], [0.6, 0.7, 0.8], [1.0, 1.0, 1.0]].iter().enumerate() {
+            assert!((0..3).all(|k| (got[p][k] - want[k]).abs() < 1e-6), "point {p}: {:?}", got[p]);
+        }
+        job.options.color = Some([2.0, 0.0, 0.0]);
+        assert!(job.check().unwrap_err().contains("color"));
     }
 }

@@ -67,16 +67,12 @@ impl View {
 }
 
 impl View {
-    /// The shadow of the strands in this view: per pixel `1 − min(Σ α, 1)` over the strips
-    /// (`width(point)` wide, opacity `alpha(point)`) covering its centre.
-    fn shadow(
-        &self,
-        s: &Strands,
-        width: &(dyn Fn(usize) -> f32 + Sync),
-        alpha: &(dyn Fn(usize) -> f32 + Sync),
-    ) -> Vec<f32> {
+    /// Every pixel centre a strip covers: `hit(pixel, point, across)` for each segment (from
+    /// `point` to the next) whose strip, `2 × half(point)` pixels wide, holds the pixel's centre
+    /// — along the segment in [0, 1) (each joint counted once), `across` pixels from it. Rows
+    /// are walked over only the span where both conditions can hold.
+    fn cover(&self, s: &Strands, half: &dyn Fn(usize) -> f32, mut hit: impl FnMut(usize, usize, f32)) {
         let n = self.n as usize;
-        let mut sum = vec![0.0f32; n * n];
         let mut first = 0usize;
         for &seg in &s.segments {
             let last = first + seg as usize;
@@ -87,26 +83,101 @@ impl View {
                 if len2 <= 0.0 {
                     continue;
                 }
-                let half = 0.5 * width(p).max(0.0) / self.pixel;
-                let opacity = alpha(p);
-                let (x0, x1) = ((a.0.min(b.0) - half).floor() as i32, (a.0.max(b.0) + half).ceil() as i32);
-                let (y0, y1) = ((a.1.min(b.1) - half).floor() as i32, (a.1.max(b.1) + half).ceil() as i32);
-                let inv_len = 1.0 / len2.sqrt();
+                let half = half(p);
+                let (x0, x1) = (floor(a.0.min(b.0) - half), ceil(a.0.max(b.0) + half));
+                let (y0, y1) = (floor(a.1.min(b.1) - half), ceil(a.1.max(b.1) + half));
+                let len = len2.sqrt();
+                let inv_len = 1.0 / len;
                 for y in y0.max(0)..y1.min(self.n) {
-                    for x in x0.max(0)..x1.min(self.n) {
-                        let (px, py) = (x as f32 + 0.5 - a.0, y as f32 + 0.5 - a.1);
-                        // Along the segment in [0, 1) (each joint counted once), across within half.
+                    // The pixels of this row that can pass the test below: where both linear
+                    // conditions hold, widened by a pixel against rounding (the test decides).
+                    let py = y as f32 + 0.5 - a.1;
+                    let (s0, s1) = solve(dx, -py * dy, len2 - py * dy);
+                    let (c0, c1) = solve(dy, py * dx - half * len, py * dx + half * len);
+                    let (from, to) = (s0.max(c0) + a.0 - 0.5, s1.min(c1) + a.0 - 0.5);
+                    if from > to {
+                        continue;
+                    }
+                    let clamp = |v: f32| v.clamp(x0 as f32 - 2.0, x1 as f32 + 2.0);
+                    let (from, to) = ((floor(clamp(from)) - 1).max(x0), (ceil(clamp(to)) + 2).min(x1));
+                    for x in from.max(0)..to.min(self.n) {
+                        let px = x as f32 + 0.5 - a.0;
                         let t = (px * dx + py * dy) / len2;
                         let across = (px * dy - py * dx).abs() * inv_len;
                         if (0.0..1.0).contains(&t) && across <= half {
-                            sum[y as usize * n + x as usize] += opacity;
+                            hit(y as usize * n + x as usize, p, across);
                         }
                     }
                 }
             }
             first = last + 1;
         }
+    }
+
+    /// The shadow of the strands in this view: per pixel `1 − min(Σ α, 1)` over the strips
+    /// (`width(point)` wide, opacity `alpha(point)`) covering its centre.
+    fn shadow(
+        &self,
+        s: &Strands,
+        width: &(dyn Fn(usize) -> f32 + Sync),
+        alpha: &(dyn Fn(usize) -> f32 + Sync),
+    ) -> Vec<f32> {
+        let n = self.n as usize;
+        let mut sum = vec![0.0f32; n * n];
+        self.cover(s, &|p| 0.5 * width(p).max(0.0) / self.pixel, |i, p, _| sum[i] += alpha(p));
         sum.into_iter().map(|o| 1.0 - o.min(1.0)).collect()
+    }
+
+    /// The shadows of several sets in one walk over the strips: `sets[k]` is (width, opacity)
+    /// of candidate `k`, widths increasing. The widest strips are walked once; each covered
+    /// pixel adds, in the same order as [`View::shadow`] would, the opacity of every
+    /// candidate whose strip also holds it — the same sums, without a walk per candidate.
+    fn shadows(&self, s: &Strands, sets: &[(f32, f32)]) -> Vec<Vec<f32>> {
+        let n = self.n as usize;
+        let k_count = sets.len();
+        let per_point: Vec<_> = sets.iter().map(|&set| per_point(s, set)).collect();
+        let halves =
+            |p: usize| -> Vec<f32> { per_point.iter().map(|(w, _)| 0.5 * w(p).max(0.0) / self.pixel).collect() };
+        let widest = |p: usize| halves(p).into_iter().fold(0.0f32, f32::max);
+        let mut sums = vec![0.0f32; n * n * k_count];
+        let mut cached: Option<(usize, Vec<f32>, Vec<f32>)> = None;
+        self.cover(s, &widest, |i, p, across| {
+            if cached.as_ref().is_none_or(|c| c.0 != p) {
+                cached = Some((p, halves(p), per_point.iter().map(|(_, a)| a(p)).collect()));
+            }
+            let (_, half, alpha) = cached.as_ref().expect("set above");
+            for k in 0..k_count {
+                if across <= half[k] {
+                    sums[i * k_count + k] += alpha[k];
+                }
+            }
+        });
+        (0..k_count).map(|k| (0..n * n).map(|i| 1.0 - sums[i * k_count + k].min(1.0)).collect()).collect()
+    }
+}
+
+/// `⌊v⌋` for values well inside the i32 range (no libm call).
+fn floor(v: f32) -> i32 {
+    let i = v as i32;
+    if (i as f32) > v { i - 1 } else { i }
+}
+
+/// `⌈v⌉` for values well inside the i32 range.
+fn ceil(v: f32) -> i32 {
+    let i = v as i32;
+    if (i as f32) < v { i + 1 } else { i }
+}
+
+/// The `px` with `lo ≤ px · c ≤ hi`, as an interval (everything or nothing when `c` is 0).
+fn solve(c: f32, lo: f32, hi: f32) -> (f32, f32) {
+    if c > 0.0 {
+        (lo / c, hi / c)
+    } else if c < 0.0 {
+        (hi / c, lo / c)
+    } else if lo <= 0.0 && 0.0 <= hi {
+        (f32::NEG_INFINITY, f32::INFINITY)
+    } else {
+        (f32::INFINITY, f32::NEG_INFINITY)
     }
 }
 
@@ -161,7 +232,22 @@ impl LightView {
     /// the pixels in or beside shadow in either (visibility below 0.98), and that pixel count.
     pub fn squared_error(&self, s: &Strands, sets: &StripSets) -> (f64, usize) {
         let (w, a) = per_point(s, sets.opacity);
-        let shadow = self.view.shadow(s, &w, &a);
+        self.error_of(&self.view.shadow(s, &w, &a))
+    }
+
+    /// [`LightView::squared_error`] of each opacity set of `candidates` (widths increasing), in
+    /// one walk over the strips per group of candidates that fits in 256 MiB of sums.
+    pub fn squared_errors(&self, s: &Strands, candidates: &[(f32, f32)]) -> Vec<(f64, usize)> {
+        let pixels = (self.view.n as usize).pow(2);
+        let group = ((64 << 20) / pixels).clamp(1, candidates.len().max(1));
+        candidates
+            .chunks(group)
+            .flat_map(|sets| self.view.shadows(s, sets))
+            .map(|shadow| self.error_of(&shadow))
+            .collect()
+    }
+
+    fn error_of(&self, shadow: &[f32]) -> (f64, usize) {
         let (mut sq, mut n) = (0.0f64, 0usize);
         for (&c, &r) in shadow.iter().zip(&self.reference) {
             if c < 0.98 || r < 0.98 {
@@ -190,16 +276,19 @@ const STEPS_PER_DOUBLING: u32 = 4;
 /// `resolution` is nearest the reference along the six axes (mean squared error over the
 /// views). Returns the sets and that RMS error.
 pub fn choose(s: &Strands, base: &StripSets, resolution: u32) -> (StripSets, f64) {
-    let views: Vec<LightView> = directions()[..6].par_iter().map(|&d| LightView::new(s, d, resolution, base)).collect();
     let with = |width: f32| StripSets { opacity: (width, matching_alpha(base, width)), ..*base };
     let count = (MAX_WIDTH_RATIO.log2() * STEPS_PER_DOUBLING as f32).round() as u32;
-    let scored: Vec<(f32, f64)> = (0..=count)
-        .into_par_iter()
-        .map(|k| {
-            let width = base.shading.0 * 2f32.powf(k as f32 / STEPS_PER_DOUBLING as f32);
-            let mse = views.iter().map(|v| v.squared_error(s, &with(width)).0).sum::<f64>() / views.len() as f64;
-            (width, mse)
-        })
+    let widths: Vec<f32> =
+        (0..=count).map(|k| base.shading.0 * 2f32.powf(k as f32 / STEPS_PER_DOUBLING as f32)).collect();
+    let candidates: Vec<(f32, f32)> = widths.iter().map(|&w| with(w).opacity).collect();
+    let errors: Vec<Vec<(f64, usize)>> = directions()[..6]
+        .par_iter()
+        .map(|&d| LightView::new(s, d, resolution, base).squared_errors(s, &candidates))
+        .collect();
+    let scored: Vec<(f32, f64)> = widths
+        .iter()
+        .enumerate()
+        .map(|(k, &width)| (width, errors.iter().map(|e| e[k].0).sum::<f64>() / errors.len() as f64))
         .collect();
     // The narrowest of the best (candidates are in increasing width).
     let &(width, mse) = scored.iter().min_by(|a, b| a.1.total_cmp(&b.1)).expect("at least one candidate");

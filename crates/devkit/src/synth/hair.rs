@@ -13,6 +13,23 @@ const HEAD: [f32; 3] = [8.0, 10.5, 9.5];
 /// the base 0.016 cm) and opacity (0.6–1.0 × 0.366) go into per-point arrays, tapered to 40% at
 /// the tip. Deterministic in `seed`.
 pub fn hair(count: u32, points: u16, seed: u32) -> Strands {
+    grow(count, points, seed, Curl { radius: (0.25, 0.5), turns: (1.5, 2.5) })
+}
+
+/// Curly hair: [`hair`]'s head and growth with tight ringlets — each strand circles its growth
+/// direction 6–10 times, the circle growing from nothing at the root to 0.6–1.0 cm at the tip.
+/// Deterministic in `seed`.
+pub fn curly(count: u32, points: u16, seed: u32) -> Strands {
+    grow(count, points, seed, Curl { radius: (0.6, 0.4), turns: (6.0, 4.0) })
+}
+
+/// The curl of a head of hair: radius and turns, each `base + spread × random`.
+struct Curl {
+    radius: (f32, f32),
+    turns: (f32, f32),
+}
+
+fn grow(count: u32, points: u16, seed: u32, curl: Curl) -> Strands {
     let n = points as usize;
     let mut out = empty(count, points);
     let mut s = 0u32;
@@ -34,7 +51,8 @@ pub fn hair(count: u32, points: u16, seed: u32) -> Strands {
         normal.iter_mut().for_each(|c| *c /= len);
         let length = 14.0 + 14.0 * r(3);
         let step = length / (n - 1) as f32;
-        let (curl_r, curl_f, curl_p) = (0.25 + 0.5 * r(4), 1.5 + 2.5 * r(5), std::f32::consts::TAU * r(6));
+        let (curl_r, curl_f, curl_p) =
+            (curl.radius.0 + curl.radius.1 * r(4), curl.turns.0 + curl.turns.1 * r(5), std::f32::consts::TAU * r(6));
         let width = 0.016 * (0.8 + 0.4 * r(7));
         let transparency = 1.0 - 0.366 * (0.6 + 0.4 * r(8));
         let mut p = root;

@@ -1,7 +1,8 @@
 //! Hair strips with anti-aliased deep opacity maps (seed 004): [`HairRenderer`], the WGSL of
 //! [`HAIR_WGSL`], and the CPU reference of both in [`reference`](mod@reference).
 //!
-//! A `strands` asset holds two vertices per strand point; the vertex shader pushes them apart
+//! A `strands` asset holds one record per strand point; each instance draws a segment from two
+//! consecutive records as a 4-vertex strip whose vertex shader pushes the sides apart
 //! across the strand so the strip faces whoever looks (the light in the light passes, the camera
 //! when shading). Either set — thin shading strips or the wide faint opacity set — can be drawn
 //! into the opacity maps; the camera always draws the shading set, blended at its own opacity
@@ -26,7 +27,9 @@ use glam::camera::rh::proj::directx;
 use glam::camera::rh::view::look_to_mat4;
 use glam::{Mat4, Vec3};
 
-pub use renderer::{HairFrame, HairOptions, HairRenderer, HairUniform, Lookup};
+pub use renderer::{
+    AUTO_LOD_PIXELS, HairFrame, HairLod, HairOptions, HairRenderer, HairStyle, HairUniform, Lod, Lookup,
+};
 
 /// WGSL of the passes and of `hair_visibility` for receivers (see the module docs).
 pub const HAIR_WGSL: &str = include_str!("../shaders/hair.wgsl");

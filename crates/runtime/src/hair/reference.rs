@@ -2,56 +2,187 @@
 //! function of the same name where there is one, for the tests and for tools without a device.
 
 use glam::{Vec3, Vec4};
+use hikage_bundle::{StrandPoint, StrandsSettings};
 
-use super::{HairLight, HairSet, HairUniform, Lookup};
+use super::{HairLight, HairUniform, Lookup};
 
-/// The strips as plain arrays, for the CPU reference.
+/// A strands asset's records and settings, for the CPU reference.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StripArrays {
-    /// Centre-line positions.
-    pub position: Vec<Vec3>,
-    /// −1 or +1.
-    pub side: Vec<f32>,
-    /// Unit tangents.
+    /// Every record, in stored order.
+    pub points: Vec<StrandPoint>,
+    /// The asset's settings.
+    pub settings: StrandsSettings,
+}
+
+impl StripArrays {
+    /// The records of a `Strands` asset's mesh, or `None` when its layout is not format 1.5's.
+    pub fn from_mesh(mesh: &hikage_bundle::MeshData, settings: &StrandsSettings) -> Option<StripArrays> {
+        Some(StripArrays { points: hikage_bundle::read_strand_points(mesh, settings)?, settings: settings.clone() })
+    }
+
+    /// The records a level of detail draws (its first points), every one for a level the asset
+    /// lacks.
+    pub fn points_of_level(&self, level: u32) -> u32 {
+        self.settings.levels.get(level as usize).map_or(self.points.len() as u32, |l| l[1])
+    }
+}
+
+/// `hair_point`: a record as a pass uses it, in the drawn set at the pass's widening.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HairPoint {
+    /// Centre-line position.
+    pub position: Vec3,
+    /// Unit tangent.
+    pub tangent: Vec3,
+    /// Full width (tapered, widened).
+    pub width: f32,
+    /// Opacity.
+    pub alpha: f32,
+    /// Linear RGB, tinted.
+    pub color: Vec3,
+    /// Whether the segment from this point exists.
+    pub drawn: bool,
+}
+
+/// `hair_strand_variation`: a strand's brightness factor from its id.
+pub fn strand_variation(u: &HairUniform, id: u32) -> f32 {
+    let mut h = id.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+    h = ((h >> ((h >> 28) + 4)) ^ h).wrapping_mul(277_803_737);
+    h ^= h >> 22;
+    1.0 + u.color_variation * (h as f32 / 4_294_967_295.0 - 0.5)
+}
+
+/// `hair_point` of the WGSL.
+pub fn hair_point(u: &HairUniform, p: &StrandPoint, opacity_set: bool, widen: f32) -> HairPoint {
+    let param = p.param();
+    let mut width = p.width * (1.0 - u.taper * param) * widen;
+    let mut alpha = p.alpha * (u.root_tint[3] + (u.tip_tint[3] - u.root_tint[3]) * param);
+    if opacity_set {
+        width *= u.width_ratio;
+        alpha = (alpha * u.alpha_ratio).min(1.0);
+    }
+    let (root, tip) = (Vec3::from_slice(&u.root_tint), Vec3::from_slice(&u.tip_tint));
+    let tint = (root + (tip - root) * param) * strand_variation(u, p.strand_id);
+    HairPoint {
+        position: Vec3::from(p.position),
+        tangent: Vec3::from(p.tangent),
+        width,
+        alpha,
+        color: Vec3::from(p.color) * tint,
+        drawn: p.index < p.segments,
+    }
+}
+
+/// `hair_across`: the unit vector across tangent `t` facing `toward`.
+pub fn across(t: Vec3, toward: Vec3) -> Vec3 {
+    let mut a = t.cross(toward);
+    if a.length() < 1e-6 {
+        a = t.cross(Vec3::Z);
+        if a.length() < 1e-6 {
+            a = Vec3::X;
+        }
+    }
+    a.normalize()
+}
+
+/// `hair_pixel_width`: pixels across a strip `width` wide at `p` along `across`.
+pub fn pixel_width(u: &HairUniform, p: Vec3, across: Vec3, width: f32) -> f32 {
+    let camera = glam::Mat4::from_cols_array_2d(&u.camera);
+    let (c0, c1) = (camera * p.extend(1.0), camera * (p + across * width).extend(1.0));
+    if c0.w <= 0.0 || c1.w <= 0.0 {
+        return 0.0;
+    }
+    let d = (c1.truncate().truncate() / c1.w - c0.truncate().truncate() / c0.w) * 0.5 * glam::Vec2::from(u.viewport);
+    d.length()
+}
+
+/// The strips a pass draws, as triangles: per segment four vertices (its two ends, each side)
+/// and two triangles.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Expanded {
+    /// World position of each vertex.
+    pub world: Vec<Vec3>,
+    /// Unit tangent.
     pub tangent: Vec<Vec3>,
-    /// (shading, opacity set) widths.
-    pub width: Vec<[f32; 2]>,
-    /// (shading, opacity set) opacities.
-    pub opacity: Vec<[f32; 2]>,
-    /// Linear RGB colour.
+    /// Linear RGB.
     pub color: Vec<Vec3>,
+    /// Opacity.
+    pub alpha: Vec<f32>,
+    /// Distance from the strip's centre line in pixels, signed (filtered camera strips).
+    pub across_px: Vec<f32>,
+    /// The strip's width in pixels, 0 where it is drawn as it is.
+    pub footprint: Vec<f32>,
+    /// Distance to the eye (camera strips).
+    pub view_depth: Vec<f32>,
     /// Triangle list.
     pub indices: Vec<u32>,
 }
 
-impl StripArrays {
-    /// The streams of a `Strands` asset's mesh, or `None` when one is missing.
-    pub fn from_mesh(mesh: &hikage_bundle::MeshData) -> Option<StripArrays> {
-        let vec3s = |name| Some(mesh.read_f32(name)?.chunks_exact(3).map(Vec3::from_slice).collect());
-        let pairs = |name| Some(mesh.read_f32(name)?.chunks_exact(2).map(|c| [c[0], c[1]]).collect());
-        Some(StripArrays {
-            position: vec3s("position")?,
-            side: mesh.read_f32("side")?,
-            tangent: vec3s("tangent")?,
-            width: pairs("width")?,
-            opacity: pairs("opacity")?,
-            color: vec3s("color")?,
-            indices: mesh.read_indices()?,
-        })
-    }
+/// Which way a pass's strips face.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Facing {
+    /// The light passes: toward the light, the set of `opacity_set`, widened by `light_widen`.
+    Light,
+    /// The blended camera pass: toward the eye, the shading set, widened by `camera_widen`,
+    /// filtered to at least `min_pixel_width` pixels.
+    Camera,
+    /// The opaque camera draw: as [`Facing::Camera`] at the strips' own width.
+    CameraOpaque,
 }
 
-/// The vertex `hair_expand` makes: the centre pushed half the width across the strand, facing
-/// `toward`.
-pub fn expand(p: Vec3, side: f32, t: Vec3, width: f32, toward: Vec3) -> Vec3 {
-    let mut across = t.cross(toward);
-    if across.length() < 1e-6 {
-        across = t.cross(Vec3::Z);
-        if across.length() < 1e-6 {
-            across = Vec3::X;
+/// `hair_vs_light` / `hair_vs_camera` / `hair_vs_camera_opaque` over the first `points`
+/// records (one instance per record but the last).
+pub fn expand(s: &StripArrays, u: &HairUniform, facing: Facing, points: u32) -> Expanded {
+    let mut out = Expanded::default();
+    let eye = Vec3::from_slice(&u.eye);
+    let to_light = Vec3::from_slice(&u.to_light);
+    let points = (points as usize).min(s.points.len());
+    let (opacity_set, widen) = match facing {
+        Facing::Light => (u.opacity_set == 1, u.light_widen),
+        Facing::Camera | Facing::CameraOpaque => (false, u.camera_widen),
+    };
+    for i in 0..points.saturating_sub(1) {
+        let a = hair_point(u, &s.points[i], opacity_set, widen);
+        if !a.drawn {
+            continue;
         }
+        let b = hair_point(u, &s.points[i + 1], opacity_set, widen);
+        let base = out.world.len() as u32;
+        for p in [a, b] {
+            let toward = if facing == Facing::Light { to_light } else { (eye - p.position).normalize() };
+            let side = across(p.tangent, toward);
+            let (mut width, mut alpha, mut footprint) = (p.width, p.alpha, 0.0);
+            let pixels = pixel_width(u, p.position, side, width);
+            if facing == Facing::Camera && u.min_pixel_width > 0.0 && pixels > 0.0 {
+                footprint = pixels.max(u.min_pixel_width);
+                alpha *= pixels / footprint;
+                width *= (footprint + 1.0) / pixels;
+            }
+            for sign in [-1.0f32, 1.0] {
+                let w = p.position + side * (sign * 0.5 * width);
+                out.world.push(w);
+                out.tangent.push(p.tangent);
+                out.color.push(p.color);
+                out.alpha.push(alpha);
+                out.across_px.push(if footprint > 0.0 { sign * 0.5 * (footprint + 1.0) } else { 0.0 });
+                out.footprint.push(footprint);
+                out.view_depth.push((w - eye).length());
+            }
+        }
+        out.indices.extend([base, base + 1, base + 2, base + 2, base + 1, base + 3]);
     }
-    p + across.normalize() * (side * 0.5 * width)
+    out
+}
+
+/// `hair_coverage`: the share of a pixel a filtered strip covers across, from the fragment's
+/// distance to the centre line and the strip's width in pixels (1 when `footprint` is 0).
+pub fn coverage(across_px: f32, footprint: f32) -> f32 {
+    if footprint <= 0.0 {
+        return 1.0;
+    }
+    let d = across_px.abs();
+    ((d + 0.5).min(0.5 * footprint) - (d - 0.5).max(-0.5 * footprint)).clamp(0.0, 1.0)
 }
 
 /// Far boundary of layer `k` (1-based) above `z0`.
@@ -59,26 +190,24 @@ pub fn boundary(z0: f32, step: f32, k: usize) -> f32 {
     z0 + step * (k * (k + 1) / 2) as f32
 }
 
-/// Every fragment the light passes rasterise from `set`: `fragment(texel index, light NDC
-/// depth, opacity)` for each texel centre a strip triangle covers, triangle by triangle.
+/// Every fragment the light passes rasterise from strips expanded toward the light:
+/// `fragment(texel index, light NDC depth, opacity)` for each texel centre a triangle covers,
+/// triangle by triangle.
 pub fn for_each_light_fragment(
-    s: &StripArrays,
+    e: &Expanded,
     light: &HairLight,
-    set: HairSet,
     resolution: u32,
     mut fragment: impl FnMut(usize, f32, f32),
 ) {
     let r = resolution as usize;
-    let pick = usize::from(set == HairSet::Opacity);
-    let screen: Vec<(Vec3, f32)> = (0..s.position.len())
+    let screen: Vec<(Vec3, f32)> = (0..e.world.len())
         .map(|v| {
-            let w = expand(s.position[v], s.side[v], s.tangent[v], s.width[v][pick], light.to_light);
-            let c: Vec4 = light.view_proj * w.extend(1.0);
+            let c: Vec4 = light.view_proj * e.world[v].extend(1.0);
             let ndc = c.truncate() / c.w;
-            (Vec3::new((ndc.x * 0.5 + 0.5) * r as f32, (0.5 - ndc.y * 0.5) * r as f32, ndc.z), s.opacity[v][pick])
+            (Vec3::new((ndc.x * 0.5 + 0.5) * r as f32, (0.5 - ndc.y * 0.5) * r as f32, ndc.z), e.alpha[v])
         })
         .collect();
-    for tri in s.indices.chunks_exact(3) {
+    for tri in e.indices.chunks_exact(3) {
         let (a, b, c) = (screen[tri[0] as usize], screen[tri[1] as usize], screen[tri[2] as usize]);
         let (pa, pb, pc) = (a.0, b.0, c.0);
         let area = (pb.x - pa.x) * (pc.y - pa.y) - (pb.y - pa.y) * (pc.x - pa.x);
@@ -108,12 +237,13 @@ pub fn for_each_light_fragment(
     }
 }
 
-/// CPU reference of the two light passes: the nearest depth per texel (1 where no hair) and
-/// the cumulative opacity layers, rasterising each triangle at texel centres.
-pub fn accumulate_cpu(s: &StripArrays, light: &HairLight, set: HairSet, resolution: u32) -> (Vec<f32>, Vec<[f32; 4]>) {
+/// CPU reference of the two light passes over strips expanded toward the light: the nearest
+/// depth per texel (1 where no hair) and the cumulative opacity layers, rasterising each
+/// triangle at texel centres.
+pub fn accumulate_cpu(e: &Expanded, light: &HairLight, resolution: u32) -> (Vec<f32>, Vec<[f32; 4]>) {
     let r = resolution as usize;
     let mut z0 = vec![1.0f32; r * r];
-    for_each_light_fragment(s, light, set, resolution, |i, z, _| z0[i] = z0[i].min(z));
+    for_each_light_fragment(e, light, resolution, |i, z, _| z0[i] = z0[i].min(z));
     let steps: Vec<f32> = (0..r * r)
         .map(|i| {
             let (nx, ny) = texel_ndc(i % r, i / r, resolution);
@@ -121,7 +251,7 @@ pub fn accumulate_cpu(s: &StripArrays, light: &HairLight, set: HairSet, resoluti
         })
         .collect();
     let mut layers = vec![[0.0f32; 4]; r * r];
-    for_each_light_fragment(s, light, set, resolution, |i, z, alpha| {
+    for_each_light_fragment(e, light, resolution, |i, z, alpha| {
         for (k, layer) in layers[i].iter_mut().enumerate() {
             if z < boundary(z0[i], steps[i], k + 1) {
                 *layer += alpha;
@@ -223,10 +353,12 @@ pub fn hair_kajiya_kay(
     base * (Vec3::from_slice(&uniform.ambient[..3]) + direct * sin_l) + direct * spec
 }
 
-/// `hair_oit_weight`: a fragment's weight in the order-independent blend, from its view depth
-/// and opacity (McGuire & Bavoil 2013, eq. 10).
-pub fn hair_oit_weight(z: f32, a: f32) -> f32 {
-    a * (0.03 / (1e-5 + (z / 200.0).powi(4))).clamp(1e-2, 3e3)
+/// `hair_oit_weight`: a fragment's weight in the order-independent blend, from its distance
+/// to the eye `z` (within the hair box's `depth_range`) and opacity.
+pub fn hair_oit_weight(u: &HairUniform, z: f32, a: f32) -> f32 {
+    let [near, far] = u.depth_range;
+    let t = ((z - near) / (far - near).max(1e-6)).clamp(0.0, 1.0);
+    a * (-u.oit_falloff * t).exp().max(1e-4)
 }
 
 #[cfg(test)]

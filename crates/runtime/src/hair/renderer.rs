@@ -1,8 +1,10 @@
 //! [`HairRenderer`]: the deep opacity maps from a light, the shading set blended at its opacity
 //! (or opaque) from the camera, and `hair_visibility` for the game's shadow receivers.
 
+use std::sync::atomic::{AtomicU32, Ordering};
+
 use glam::{Mat4, Vec3};
-use hikage_bundle::{ComponentType, MeshDesc, StrandsSettings};
+use hikage_bundle::{MeshDesc, StrandsSettings};
 
 use super::{HAIR_WGSL, HairLight, HairSet};
 use crate::draw::DrawOptions;
@@ -10,26 +12,28 @@ use crate::error::RuntimeError;
 use crate::gpu;
 use crate::upload::GpuBundle;
 
-/// The strands mesh's streams the shaders read, in shader location order, by their names in
-/// the one table of the kind ([`hikage_bundle::STRANDS_STREAMS`]).
+/// The record's streams the shaders read, by their names in the one table of the kind
+/// ([`hikage_bundle::STRANDS_STREAMS`]), with the vertex format each is read as.
 const STREAMS: [(&str, wgpu::VertexFormat); 6] = {
     let s = hikage_bundle::STRANDS_STREAMS;
     [
         (s[0].name, wgpu::VertexFormat::Float32x3),
-        (s[1].name, wgpu::VertexFormat::Float32),
-        (s[2].name, wgpu::VertexFormat::Float32x3),
-        (s[4].name, wgpu::VertexFormat::Float32x2),
-        (s[5].name, wgpu::VertexFormat::Float32x2),
-        (s[6].name, wgpu::VertexFormat::Float32x3),
+        (s[1].name, wgpu::VertexFormat::Unorm16x2),
+        (s[2].name, wgpu::VertexFormat::Unorm16x2),
+        (s[3].name, wgpu::VertexFormat::Unorm8x4),
+        (s[4].name, wgpu::VertexFormat::Uint16x2),
+        (s[5].name, wgpu::VertexFormat::Uint32),
     ]
 };
 
+/// Bytes of one strand record.
+const RECORD: u64 = hikage_bundle::STRANDS_RECORD_BYTES as u64;
+
 const DEPTH_MAP: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 const LAYERS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
-const ACCUM: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const REVEALAGE: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
 
-/// The `HairUniform` of the hair WGSL, as it is in the uniform buffer (320 bytes).
+/// The `HairUniform` of the hair WGSL, as it is in the uniform buffer (400 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct HairUniform {
@@ -51,6 +55,10 @@ pub struct HairUniform {
     pub light_color: [f32; 4],
     /// Ambient RGB.
     pub ambient: [f32; 4],
+    /// Colour factor (rgb) and opacity factor (a) at the root.
+    pub root_tint: [f32; 4],
+    /// Colour factor (rgb) and opacity factor (a) at the tip.
+    pub tip_tint: [f32; 4],
     /// Layer step `d` in light NDC depth.
     pub step: f32,
     /// The set drawn into the opacity maps: 0 shading, 1 opacity.
@@ -65,8 +73,28 @@ pub struct HairUniform {
     pub layer_rule: u32,
     /// [`Lookup::code`].
     pub lookup: u32,
-    /// Padding.
-    pub _pad: u32,
+    /// A record's width scale (the asset's `max_width`).
+    pub max_width: f32,
+    /// Opacity set width / shading set width.
+    pub width_ratio: f32,
+    /// Opacity set opacity / shading set opacity.
+    pub alpha_ratio: f32,
+    /// Share of the width lost at the tip.
+    pub taper: f32,
+    /// Narrowest camera strip in pixels (0: off).
+    pub min_pixel_width: f32,
+    /// The camera target's size in pixels.
+    pub viewport: [f32; 2],
+    /// Distance from the eye to the nearest and farthest point of the hair's box.
+    pub depth_range: [f32; 2],
+    /// Width factor of the camera passes' level of detail.
+    pub camera_widen: f32,
+    /// Width factor of the light passes' level of detail.
+    pub light_widen: f32,
+    /// Per-strand brightness spread.
+    pub color_variation: f32,
+    /// The blend's weight falloff: the hair's optical depth across its box.
+    pub oit_falloff: f32,
 }
 
 /// How receivers read the opacity maps.
@@ -87,6 +115,62 @@ impl Lookup {
         match self {
             Lookup::Nearest => 0,
             Lookup::Bilinear => 1,
+        }
+    }
+}
+
+/// Which level of detail a pass draws: level `l` draws about `1 / 2^l` of the strands, each
+/// widened so the hair's coverage is kept ([`hikage_bundle::StrandsSettings::levels`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Lod {
+    /// Chosen per frame from the hair's projected size ([`AUTO_LOD_PIXELS`]).
+    #[default]
+    Auto,
+    /// This level (0: every strand), or the coarsest the asset has.
+    Level(u32),
+}
+
+/// [`Lod::Auto`] drops strands while the widened strips stay at most this wide, in pixels of
+/// the camera (or texels of the opacity maps), at the centre of the hair's box.
+pub const AUTO_LOD_PIXELS: f32 = 0.1;
+
+/// The levels of detail of the camera passes and of the light passes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct HairLod {
+    /// The camera's (blended or opaque hair).
+    pub camera: Lod,
+    /// The opacity maps'.
+    pub light: Lod,
+}
+
+/// How strands look beyond what the asset holds: a gradient from root to tip, a taper, and a
+/// per-strand variation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HairStyle {
+    /// Factor on the strand colour at the root (linear RGB).
+    pub root_tint: Vec3,
+    /// Factor on the strand colour at the tip; mixed with `root_tint` by `param`.
+    pub tip_tint: Vec3,
+    /// Factor on the opacity at the root.
+    pub root_alpha: f32,
+    /// Factor on the opacity at the tip (a fade toward the tips below 1).
+    pub tip_alpha: f32,
+    /// Share of the width lost at the tip, or `None` for the asset's.
+    pub taper: Option<f32>,
+    /// Spread of a per-strand brightness factor, hashed from the strand's id (0: none; 0.2:
+    /// ±10%).
+    pub color_variation: f32,
+}
+
+impl Default for HairStyle {
+    fn default() -> HairStyle {
+        HairStyle {
+            root_tint: Vec3::ONE,
+            tip_tint: Vec3::ONE,
+            root_alpha: 1.0,
+            tip_alpha: 1.0,
+            taper: None,
+            color_variation: 0.0,
         }
     }
 }
@@ -113,11 +197,20 @@ pub struct HairFrame {
     pub specular_power: f32,
     /// How receivers (and the hair itself) read the opacity maps.
     pub lookup: Lookup,
+    /// The narrowest strip the camera draws, in pixels: a thinner one is widened to it with
+    /// its opacity lowered by the same factor (its coverage kept), so sub-pixel strands blend
+    /// instead of speckling. 0 draws them at their own width.
+    pub min_pixel_width: f32,
+    /// Levels of detail.
+    pub lod: HairLod,
+    /// Gradient, taper and variation.
+    pub style: HairStyle,
 }
 
 impl HairFrame {
     /// A frame for `camera` at `eye` lit by `light` through the opacity set, with white light,
-    /// a little ambient light and a specular highlight.
+    /// a little ambient light, a specular highlight, strips at least 1 pixel wide and automatic
+    /// levels of detail.
     pub fn new(camera: Mat4, eye: Vec3, light: HairLight) -> HairFrame {
         HairFrame {
             camera,
@@ -129,6 +222,9 @@ impl HairFrame {
             specular: 0.25,
             specular_power: 40.0,
             lookup: Lookup::Nearest,
+            min_pixel_width: 1.0,
+            lod: HairLod::default(),
+            style: HairStyle::default(),
         }
     }
 }
@@ -218,6 +314,10 @@ pub struct HairRenderer {
     revealage: wgpu::TextureView,
     pipelines: Pipelines,
     has_depth: bool,
+    size: (u32, u32),
+    accum_format: wgpu::TextureFormat,
+    /// The levels [`update`](HairRenderer::update) chose: camera, light.
+    drawn: [AtomicU32; 2],
 }
 
 #[derive(Debug)]
@@ -273,14 +373,11 @@ impl HairRenderer {
             .strands()
             .ok_or_else(|| bad(format!("expected a strands asset, found a {}", mesh.asset.kind.name())))?
             .clone();
-        for (name, format) in STREAMS {
-            let a = mesh.desc.attribute(name).ok_or_else(|| bad(format!("no `{name}` stream")))?;
-            if a.component != ComponentType::F32 || a.stride as u64 != format.size() {
-                return Err(bad(format!("stream `{name}` must be tightly packed {format:?}")));
-            }
+        if mesh.desc != hikage_bundle::strands_desc(mesh.desc.vertex_count) {
+            return Err(bad("strand records must be the interleaved 32-byte layout of format 1.5".into()));
         }
-        if !matches!(mesh.desc.indices.as_ref().map(|i| i.component), Some(ComponentType::U32)) {
-            return Err(bad("a strands mesh needs U32 indices".into()));
+        if let Some(l) = settings.levels.iter().find(|l| l[1] > mesh.desc.vertex_count || l[0] > settings.strands) {
+            return Err(bad(format!("level of detail {l:?} names more than the asset's strands and points")));
         }
         if options.resolution == 0 || options.resolution > device.limits().max_texture_dimension_2d {
             return Err(bad(format!("opacity maps of {} texels a side do not fit this device", options.resolution)));
@@ -323,8 +420,15 @@ impl HairRenderer {
         let opacity_group = group(&layouts.opacity, &[ubind.clone(), view_entry(1, &depth_view)]);
         let receiver_group =
             group(&layouts.receiver, &[ubind.clone(), view_entry(1, &depth_view), view_entry(2, &layers_view)]);
-        let (accum, revealage, composite_group) = frame_targets(device, &layouts.composite, options.size);
-        let pipelines = gpu::checked(device, strips, || pipelines(device, &wgsl, &layouts, options))?;
+        // Accumulate in f32 where the device blends it; the weights are bounded so half floats
+        // do not overflow either.
+        let accum_format = if device.features().contains(wgpu::Features::FLOAT32_BLENDABLE) {
+            wgpu::TextureFormat::Rgba32Float
+        } else {
+            wgpu::TextureFormat::Rgba16Float
+        };
+        let (accum, revealage, composite_group) = frame_targets(device, &layouts.composite, options.size, accum_format);
+        let pipelines = gpu::checked(device, strips, || pipelines(device, &wgsl, &layouts, options, accum_format))?;
         Ok(HairRenderer {
             assets: vec![strips.to_string()],
             wgsl,
@@ -346,6 +450,9 @@ impl HairRenderer {
             revealage,
             pipelines,
             has_depth: options.draw.depth_format.is_some(),
+            size: options.size,
+            accum_format,
+            drawn: [AtomicU32::new(0), AtomicU32::new(0)],
         })
     }
 
@@ -366,9 +473,83 @@ impl HairRenderer {
         &self.settings
     }
 
+    /// The levels of detail the asset has: `[strands, points]` per level, finest first.
+    pub fn levels(&self) -> Vec<[u32; 2]> {
+        if self.settings.levels.is_empty() {
+            vec![[self.settings.strands, self.desc.vertex_count]]
+        } else {
+            self.settings.levels.clone()
+        }
+    }
+
+    /// The levels of detail `frame` draws: (camera, light).
+    pub fn chosen_levels(&self, frame: &HairFrame) -> (u32, u32) {
+        let levels = self.levels().len() as u32;
+        let (lo, hi) = (Vec3::from(self.settings.bounds_min), Vec3::from(self.settings.bounds_max));
+        let centre = 0.5 * (lo + hi);
+        // The widest a world length at the box's centre appears, in pixels, along the axes.
+        let camera_pixels = {
+            let c0 = frame.camera * centre.extend(1.0);
+            let size = Vec3::new(self.size.0 as f32, self.size.1 as f32, 0.0);
+            [Vec3::X, Vec3::Y, Vec3::Z]
+                .into_iter()
+                .map(|axis| {
+                    let c1 = frame.camera * (centre + axis).extend(1.0);
+                    if c0.w <= 0.0 || c1.w <= 0.0 {
+                        return 0.0;
+                    }
+                    ((c1.truncate() / c1.w - c0.truncate() / c0.w) * 0.5 * size).truncate().length()
+                })
+                .fold(0.0f32, f32::max)
+        };
+        let texels = self.resolution as f32 / (hi - lo).max_element().max(1e-12);
+        let width = |set: HairSet| match set {
+            HairSet::Shading => self.settings.shading.0,
+            HairSet::Opacity => self.settings.opacity.0,
+        };
+        let pick = |lod: Lod, strip_pixels: f32| match lod {
+            Lod::Level(l) => l.min(levels - 1),
+            Lod::Auto => {
+                let mut l = 0;
+                while l + 1 < levels && strip_pixels * self.widen(l + 1) <= AUTO_LOD_PIXELS {
+                    l += 1;
+                }
+                l
+            }
+        };
+        (
+            pick(frame.lod.camera, width(HairSet::Shading) * camera_pixels),
+            pick(frame.lod.light, width(frame.set) * texels),
+        )
+    }
+
+    /// The width factor of level `level`: all strands / the strands it draws.
+    fn widen(&self, level: u32) -> f32 {
+        let levels = self.levels();
+        let l = levels[(level as usize).min(levels.len() - 1)];
+        self.settings.strands.max(1) as f32 / l[0].max(1) as f32
+    }
+
     /// The uniform for `frame`.
     pub fn uniform(&self, frame: &HairFrame) -> HairUniform {
         let (lo, hi) = frame.light.bounds;
+        let (camera_level, light_level) = self.chosen_levels(frame);
+        let s = &self.settings;
+        let ratio = |a: f32, b: f32| if b > 0.0 { a / b } else { 1.0 };
+        // Distances from the eye to the hair's box: the nearest point and the farthest corner.
+        let (blo, bhi) = (Vec3::from(s.bounds_min), Vec3::from(s.bounds_max));
+        let near = (frame.eye.clamp(blo, bhi) - frame.eye).length();
+        let far = (0..8)
+            .map(|k| {
+                let c = Vec3::new(
+                    if k & 1 == 0 { blo.x } else { bhi.x },
+                    if k & 2 == 0 { blo.y } else { bhi.y },
+                    if k & 4 == 0 { blo.z } else { bhi.z },
+                );
+                (c - frame.eye).length()
+            })
+            .fold(0.0f32, f32::max);
+        let style = &frame.style;
         HairUniform {
             light: frame.light.view_proj.to_cols_array_2d(),
             light_inverse: frame.light.view_proj.inverse().to_cols_array_2d(),
@@ -379,6 +560,8 @@ impl HairRenderer {
             to_light: frame.light.to_light.normalize().extend(0.0).to_array(),
             light_color: frame.light_color.extend(0.0).to_array(),
             ambient: frame.ambient.extend(0.0).to_array(),
+            root_tint: style.root_tint.extend(style.root_alpha).to_array(),
+            tip_tint: style.tip_tint.extend(style.tip_alpha).to_array(),
             step: frame.light.step,
             opacity_set: u32::from(frame.set == HairSet::Opacity),
             resolution: self.resolution,
@@ -389,12 +572,26 @@ impl HairRenderer {
                 super::LayerRule::PerTexel => 1,
             },
             lookup: frame.lookup.code(),
-            _pad: 0,
+            max_width: s.max_width,
+            width_ratio: ratio(s.opacity.0, s.shading.0),
+            alpha_ratio: ratio(s.opacity.1, s.shading.1),
+            taper: style.taper.unwrap_or(s.taper),
+            min_pixel_width: frame.min_pixel_width,
+            viewport: [self.size.0 as f32, self.size.1 as f32],
+            depth_range: [near, far],
+            camera_widen: self.widen(camera_level),
+            light_widen: self.widen(light_level),
+            color_variation: style.color_variation,
+            oit_falloff: oit_falloff(s, far - near),
         }
     }
 
-    /// Writes the uniform for `frame`; the next submitted passes use it.
+    /// Writes the uniform for `frame` and takes its levels of detail; the next submitted passes
+    /// use them.
     pub fn update(&self, queue: &wgpu::Queue, frame: &HairFrame) {
+        let (camera, light) = self.chosen_levels(frame);
+        self.drawn[0].store(camera, Ordering::Relaxed);
+        self.drawn[1].store(light, Ordering::Relaxed);
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.uniform(frame)));
     }
 
@@ -436,14 +633,14 @@ impl HairRenderer {
                 }),
                 ..Default::default()
             });
-            self.draw_strips(&mut pass, &self.pipelines.depth, &self.light_group);
+            self.draw_strips(&mut pass, &self.pipelines.depth, &self.light_group, LIGHT);
         }
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("hikage hair opacity layers"),
             color_attachments: &[color_attachment(&layers_view, wgpu::Color::TRANSPARENT)],
             ..Default::default()
         });
-        self.draw_strips(&mut pass, &self.pipelines.opacity, &self.opacity_group);
+        self.draw_strips(&mut pass, &self.pipelines.opacity, &self.opacity_group, LIGHT);
     }
 
     /// Records the camera pass of the order-independent blend into `encoder`: the shading set
@@ -465,7 +662,7 @@ impl HairRenderer {
             }),
             ..Default::default()
         });
-        self.draw_strips(&mut pass, &self.pipelines.oit, &self.receiver_group);
+        self.draw_strips(&mut pass, &self.pipelines.oit, &self.receiver_group, CAMERA);
     }
 
     /// Blends the hair accumulated by [`render_hair`](Self::render_hair) over the game's colour
@@ -479,26 +676,56 @@ impl HairRenderer {
     /// Draws the shading set opaque into `pass` (the game's colour target and depth), the
     /// alternative to the order-independent blend.
     pub fn draw_opaque(&self, pass: &mut wgpu::RenderPass<'_>) {
-        self.draw_strips(pass, &self.pipelines.opaque, &self.receiver_group);
+        self.draw_strips(pass, &self.pipelines.opaque, &self.receiver_group, CAMERA);
     }
 
     /// Makes the frame targets `size` pixels (after the game's window is resized).
     pub fn resize(&mut self, device: &wgpu::Device, size: (u32, u32)) {
-        (self.accum, self.revealage, self.composite_group) = frame_targets(device, &self.layouts.composite, size);
+        (self.accum, self.revealage, self.composite_group) =
+            frame_targets(device, &self.layouts.composite, size, self.accum_format);
+        self.size = size;
     }
 
-    fn draw_strips(&self, pass: &mut wgpu::RenderPass<'_>, pipeline: &wgpu::RenderPipeline, group: &wgpu::BindGroup) {
+    /// One instance per segment of the chosen level: the records bound twice, one apart.
+    fn draw_strips(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        pipeline: &wgpu::RenderPipeline,
+        group: &wgpu::BindGroup,
+        which: usize,
+    ) {
+        let levels = self.levels();
+        let level = (self.drawn[which].load(Ordering::Relaxed) as usize).min(levels.len() - 1);
+        let points = levels[level][1] as u64;
+        if points < 2 {
+            return;
+        }
+        let records = RECORD * self.desc.vertex_count as u64;
         pass.set_pipeline(pipeline);
         pass.set_bind_group(self.group, group, &[]);
-        for (slot, (name, format)) in STREAMS.iter().enumerate() {
-            let a = self.desc.attribute(name).expect("checked when the renderer was built");
-            pass.set_vertex_buffer(slot as u32, self.buffer.slice(a.offset..a.offset + format.size() * a.count as u64));
-        }
-        let ix = self.desc.indices.as_ref().expect("checked when the renderer was built");
-        pass.set_index_buffer(self.buffer.slice(ix.offset..ix.offset + 4 * ix.count as u64), wgpu::IndexFormat::Uint32);
-        pass.draw_indexed(0..ix.count, 0, 0..1);
+        pass.set_vertex_buffer(0, self.buffer.slice(0..records - RECORD));
+        pass.set_vertex_buffer(1, self.buffer.slice(RECORD..records));
+        pass.draw(0..4, 0..(points - 1) as u32);
     }
 }
+
+/// The hair's optical depth across a depth of `depth` through its box: its opacity-weighted area
+/// over the box's volume, times the depth, doubled because hair fills about half its box (a
+/// shell around the head; the factor that brought the blend nearest the sorted composite on the
+/// four layouts of the `hair_view` example), capped where the weight floor takes over.
+fn oit_falloff(s: &StrandsSettings, depth: f32) -> f32 {
+    let size = Vec3::from(s.bounds_max) - Vec3::from(s.bounds_min);
+    let volume = size.x * size.y * size.z;
+    if volume.is_nan() || volume <= 0.0 {
+        return 0.0;
+    }
+    (2.0 * s.opacity_area / volume * depth).clamp(0.0, 30.0)
+}
+
+/// The `drawn` slot of the camera passes' level.
+const CAMERA: usize = 0;
+/// The `drawn` slot of the light passes' level.
+const LIGHT: usize = 1;
 
 impl HairUniform {
     /// A uniform with nothing set but the opacity maps' resolution (before the first frame).
@@ -521,8 +748,9 @@ fn frame_targets(
     device: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,
     size: (u32, u32),
+    accum_format: wgpu::TextureFormat,
 ) -> (wgpu::TextureView, wgpu::TextureView, wgpu::BindGroup) {
-    let accum = texture(device, size, ACCUM, "hikage hair accumulation").create_view(&Default::default());
+    let accum = texture(device, size, accum_format, "hikage hair accumulation").create_view(&Default::default());
     let revealage = texture(device, size, REVEALAGE, "hikage hair revealage").create_view(&Default::default());
     let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("hikage hair composite"),
@@ -532,20 +760,35 @@ fn frame_targets(
     (accum, revealage, group)
 }
 
-fn pipelines(device: &wgpu::Device, wgsl: &str, layouts: &Layouts, options: &HairOptions) -> Pipelines {
+fn pipelines(
+    device: &wgpu::Device,
+    wgsl: &str,
+    layouts: &Layouts,
+    options: &HairOptions,
+    accum_format: wgpu::TextureFormat,
+) -> Pipelines {
     let module = gpu::module(device, "hikage hair", wgsl);
-    let attributes: Vec<[wgpu::VertexAttribute; 1]> = STREAMS
-        .iter()
-        .enumerate()
-        .map(|(location, &(_, format))| [wgpu::VertexAttribute { format, offset: 0, shader_location: location as u32 }])
+    // Both ends of a segment: the same record layout at locations 0–5 and 6–11.
+    let attributes: Vec<Vec<wgpu::VertexAttribute>> = (0..2u32)
+        .map(|end| {
+            let mut offset = 0;
+            STREAMS
+                .iter()
+                .enumerate()
+                .map(|(k, &(_, format))| {
+                    let a = wgpu::VertexAttribute { format, offset, shader_location: 6 * end + k as u32 };
+                    offset += format.size();
+                    a
+                })
+                .collect()
+        })
         .collect();
-    let buffers: Vec<Option<wgpu::VertexBufferLayout>> = STREAMS
+    let buffers: Vec<Option<wgpu::VertexBufferLayout>> = attributes
         .iter()
-        .zip(&attributes)
-        .map(|(&(_, format), a)| {
+        .map(|a| {
             Some(wgpu::VertexBufferLayout {
-                array_stride: format.size(),
-                step_mode: wgpu::VertexStepMode::Vertex,
+                array_stride: RECORD,
+                step_mode: wgpu::VertexStepMode::Instance,
                 attributes: a,
             })
         })
@@ -578,6 +821,11 @@ fn pipelines(device: &wgpu::Device, wgsl: &str, layouts: &Layouts, options: &Hai
             targets,
             depth,
             cull_mode: None,
+            topology: if strips {
+                wgpu::PrimitiveTopology::TriangleStrip
+            } else {
+                wgpu::PrimitiveTopology::TriangleList
+            },
         };
         gpu::render_pipeline(device, &module, (options.draw.group, layout), desc)
     };
@@ -601,14 +849,14 @@ fn pipelines(device: &wgpu::Device, wgsl: &str, layouts: &Layouts, options: &Hai
             ("hair_vs_camera", "hair_fs_oit"),
             true,
             &[
-                target(ACCUM, Some(wgpu::BlendState { color: add, alpha: add })),
+                target(accum_format, Some(wgpu::BlendState { color: add, alpha: add })),
                 target(REVEALAGE, Some(wgpu::BlendState { color: keep_inverse, alpha: keep_inverse })),
             ],
             scene_depth(false),
         ),
         opaque: pipeline(
             &layouts.receiver,
-            ("hair_vs_camera", "hair_fs_opaque"),
+            ("hair_vs_camera_opaque", "hair_fs_opaque"),
             true,
             &[target(color, None)],
             scene_depth(true),

@@ -1,8 +1,13 @@
 // Hair strips with deep opacity maps (seed 004): hikage_runtime::hair::HairRenderer, mirrored
 // by hikage_runtime::hair's CPU reference.
 //
-// Strips: two vertices per strand point, pushed apart across the strand in the vertex shader so
-// the strip faces the viewer (the light in the light passes, the camera in the camera passes).
+// Strips: one 32-byte record per strand point; each instance draws the segment from record i
+// to record i + 1 as a 4-vertex triangle strip, pushed apart across the strand in the vertex
+// shader so it faces the viewer (the light in the light passes, the camera in the camera
+// passes). A record whose point is the last of its strand draws nothing. Levels of detail draw
+// the first strands of the records (stored in a shuffled order) widened by strands / kept.
+// In the camera passes a strip narrower than `min_pixel_width` pixels is widened to it with
+// its opacity lowered by the same factor, so width x opacity (its coverage) is kept.
 // Light passes, orthographic, depth range = the hair's bounding box:
 //   1. depth map: the nearest hair depth z0 per texel (R32Float);
 //   2. opacity layers: every fragment adds its opacity to each layer whose far boundary lies
@@ -14,8 +19,9 @@
 // its depth, interpolated between boundaries; visibility = 1 - min(opacity, 1), at the nearest
 // texel or filtered over the 2x2 texels around the point.
 // Camera: the shading set blended at its own opacity, order-independently (weighted blended
-// OIT: an accumulation and a revealage target, then a composite over the scene), or opaque;
-// Kajiya-Kay shading with the highlight where T.E = -T.L.
+// OIT: an accumulation and a revealage target, then a composite over the scene; the weight
+// falls with the fragment's depth across the hair's box), or opaque; Kajiya-Kay shading with
+// the highlight where T.E = -T.L.
 
 struct HairUniform {
     light: mat4x4<f32>,         // world -> light clip (orthographic, wgpu depth 0..1)
@@ -27,6 +33,8 @@ struct HairUniform {
     to_light: vec4<f32>,        // unit vector toward the light
     light_color: vec4<f32>,     // rgb
     ambient: vec4<f32>,         // rgb
+    root_tint: vec4<f32>,       // rgb: colour factor at the root; a: opacity factor at the root
+    tip_tint: vec4<f32>,        // the same at the tip (mixed by param)
     step: f32,                  // layer step d, light NDC depth
     opacity_set: u32,           // the set drawn into the opacity maps: 0 shading, 1 opacity
     resolution: u32,            // opacity-map texels per side
@@ -34,7 +42,17 @@ struct HairUniform {
     specular: f32,              // Kajiya-Kay specular strength
     layer_rule: u32,            // layer step: 0 the box's range / 10, 1 per texel
     lookup: u32,                // receivers: 0 nearest texel, 1 bilinear over 2x2 texels
-    _pad: u32,
+    max_width: f32,             // a record's shape.x scale (world units)
+    width_ratio: f32,           // opacity set / shading set width
+    alpha_ratio: f32,           // opacity set / shading set opacity
+    taper: f32,                 // width x (1 - taper x param)
+    min_pixel_width: f32,       // camera passes: narrowest strip in pixels (0: off)
+    viewport: vec2<f32>,        // camera target size in pixels
+    depth_range: vec2<f32>,     // view depth (clip w) of the hair's box: nearest, farthest
+    camera_widen: f32,          // level of detail: width factor of the camera passes
+    light_widen: f32,           // level of detail: width factor of the light passes
+    color_variation: f32,       // per-strand brightness spread (0: none)
+    oit_falloff: f32,           // the blend's weight: exp(-oit_falloff x depth across the box)
 }
 
 @group(0) @binding(0) var<uniform> hair: HairUniform;
@@ -43,17 +61,88 @@ struct HairUniform {
 @group(0) @binding(3) var hair_accum: texture_2d<f32>;
 @group(0) @binding(4) var hair_revealage: texture_2d<f32>;
 
-struct StripIn {
-    @location(0) position: vec3<f32>,
-    @location(1) side: f32,
-    @location(2) tangent: vec3<f32>,
-    @location(3) width: vec2<f32>,
-    @location(4) opacity: vec2<f32>,
-    @location(5) color: vec3<f32>,
+// One instance: the records of a segment's two points (the same buffer bound twice, one record
+// apart).
+struct SegmentIn {
+    @builtin(vertex_index) corner: u32,
+    @location(0) a_position: vec3<f32>,
+    @location(1) a_tangent: vec2<f32>,
+    @location(2) a_shape: vec2<f32>,
+    @location(3) a_color: vec4<f32>,
+    @location(4) a_strand: vec2<u32>,
+    @location(5) a_id: u32,
+    @location(6) b_position: vec3<f32>,
+    @location(7) b_tangent: vec2<f32>,
+    @location(8) b_shape: vec2<f32>,
+    @location(9) b_color: vec4<f32>,
+    @location(10) b_strand: vec2<u32>,
+    @location(11) b_id: u32,
 }
 
-// The strip vertex: the centre pushed half the width across the strand, facing `toward`.
-fn hair_expand(p: vec3<f32>, side: f32, t: vec3<f32>, width: f32, toward: vec3<f32>) -> vec3<f32> {
+// A strand point as the passes use it.
+struct HairPoint {
+    position: vec3<f32>,
+    tangent: vec3<f32>,
+    width: f32,   // full width of the drawn set, tapered, widened by the level of detail
+    alpha: f32,   // opacity of the drawn set
+    color: vec3<f32>,
+    drawn: bool,  // false: the segment from this point does not exist (last point of a strand)
+}
+
+// The unit vector of an octahedral encoding (hikage_bundle::strands::oct_encode).
+fn hair_oct_decode(e: vec2<f32>) -> vec3<f32> {
+    let f = e * 2.0 - 1.0;
+    var n = vec3<f32>(f.x, f.y, 1.0 - abs(f.x) - abs(f.y));
+    let t = max(-n.z, 0.0);
+    n.x = select(n.x + t, n.x - t, n.x >= 0.0);
+    n.y = select(n.y + t, n.y - t, n.y >= 0.0);
+    return normalize(n);
+}
+
+fn hair_srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
+    return select(pow((c + 0.055) / 1.055, vec3<f32>(2.4)), c / 12.92, c <= vec3<f32>(0.04045));
+}
+
+// A strand's brightness factor from its id: 1 +- color_variation / 2, the same for every point.
+fn hair_strand_variation(id: u32) -> f32 {
+    var h = id * 747796405u + 2891336453u;
+    h = ((h >> ((h >> 28u) + 4u)) ^ h) * 277803737u;
+    h = (h >> 22u) ^ h;
+    return 1.0 + hair.color_variation * (f32(h) / 4294967295.0 - 0.5);
+}
+
+// A record's point, in the set the pass draws (`opacity_set`), at the pass's widening.
+fn hair_point(position: vec3<f32>, tangent: vec2<f32>, shape: vec2<f32>, color: vec4<f32>, strand: vec2<u32>,
+    id: u32, opacity_set: bool, widen: f32) -> HairPoint {
+    let param = select(f32(strand.x) / f32(strand.y), 0.0, strand.y == 0u);
+    var width = shape.x * hair.max_width * (1.0 - hair.taper * param) * widen;
+    var alpha = shape.y * mix(hair.root_tint.a, hair.tip_tint.a, param);
+    if (opacity_set) {
+        width = width * hair.width_ratio;
+        alpha = min(alpha * hair.alpha_ratio, 1.0);
+    }
+    let tint = mix(hair.root_tint.rgb, hair.tip_tint.rgb, param) * hair_strand_variation(id);
+    let linear = hair_srgb_to_linear(color.rgb) * tint;
+    return HairPoint(position, hair_oct_decode(tangent), width, alpha, linear, strand.x < strand.y);
+}
+
+// The segment's end this corner belongs to (corners 0, 1 at a; 2, 3 at b), and its side.
+fn hair_end(v: SegmentIn, opacity_set: bool, widen: f32) -> HairPoint {
+    let a = hair_point(v.a_position, v.a_tangent, v.a_shape, v.a_color, v.a_strand, v.a_id, opacity_set, widen);
+    if (v.corner < 2u) {
+        return a;
+    }
+    var b = hair_point(v.b_position, v.b_tangent, v.b_shape, v.b_color, v.b_strand, v.b_id, opacity_set, widen);
+    b.drawn = a.drawn;
+    return b;
+}
+
+fn hair_side(corner: u32) -> f32 {
+    return select(-1.0, 1.0, (corner & 1u) == 1u);
+}
+
+// The unit vector across a strand of tangent t, facing `toward`.
+fn hair_across(t: vec3<f32>, toward: vec3<f32>) -> vec3<f32> {
     var across = cross(t, toward);
     if (length(across) < 1e-6) {
         across = cross(t, vec3<f32>(0.0, 0.0, 1.0));
@@ -61,8 +150,11 @@ fn hair_expand(p: vec3<f32>, side: f32, t: vec3<f32>, width: f32, toward: vec3<f
             across = vec3<f32>(1.0, 0.0, 0.0);
         }
     }
-    return p + normalize(across) * (side * 0.5 * width);
+    return normalize(across);
 }
+
+// Where a segment that does not exist goes: outside every clip volume.
+const HAIR_CULLED: vec4<f32> = vec4<f32>(0.0, 0.0, -2.0, 1.0);
 
 // Light NDC depth where the light's ray through NDC (x, y) leaves the hair's box; 1 on a miss.
 fn hair_box_exit(xy: vec2<f32>) -> f32 {
@@ -170,25 +262,18 @@ fn hair_kajiya_kay(t: vec3<f32>, to_light: vec3<f32>, to_eye: vec3<f32>, base: v
     return base * (hair.ambient.rgb + direct * sin_l) + direct * spec;
 }
 
-fn hair_set_width(v: StripIn) -> f32 {
-    return select(v.width.x, v.width.y, hair.opacity_set == 1u);
-}
-
-fn hair_set_alpha(v: StripIn) -> f32 {
-    return select(v.opacity.x, v.opacity.y, hair.opacity_set == 1u);
-}
-
 struct LightOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) alpha: f32,
 }
 
 @vertex
-fn hair_vs_light(v: StripIn) -> LightOut {
+fn hair_vs_light(v: SegmentIn) -> LightOut {
     var out: LightOut;
-    let w = hair_expand(v.position, v.side, v.tangent, hair_set_width(v), hair.to_light.xyz);
-    out.clip = hair.light * vec4<f32>(w, 1.0);
-    out.alpha = hair_set_alpha(v);
+    let p = hair_end(v, hair.opacity_set == 1u, hair.light_widen);
+    let w = p.position + hair_across(p.tangent, hair.to_light.xyz) * (hair_side(v.corner) * 0.5 * p.width);
+    out.clip = select(HAIR_CULLED, hair.light * vec4<f32>(w, 1.0), p.drawn);
+    out.alpha = p.alpha;
     return out;
 }
 
@@ -218,20 +303,72 @@ struct CameraOut {
     @location(1) tangent: vec3<f32>,
     @location(2) color: vec3<f32>,
     @location(3) alpha: f32,
+    @location(4) view_depth: f32,
+    @location(5) across_px: f32, // pixels from the strip's centre line, signed
+    @location(6) footprint: f32, // the strip's width in pixels (0: drawn as it is)
 }
 
-// The shading set, facing the camera.
-@vertex
-fn hair_vs_camera(v: StripIn) -> CameraOut {
+// Pixels across a strip `width` wide at `p`, along `across`, seen by the camera.
+fn hair_pixel_width(p: vec3<f32>, across: vec3<f32>, width: f32) -> f32 {
+    let c0 = hair.camera * vec4<f32>(p, 1.0);
+    let c1 = hair.camera * vec4<f32>(p + across * width, 1.0);
+    if (c0.w <= 0.0 || c1.w <= 0.0) {
+        return 0.0;
+    }
+    return length((c1.xy / c1.w - c0.xy / c0.w) * 0.5 * hair.viewport);
+}
+
+// A camera vertex of the shading set. With `filtered`, the strip is at least `min_pixel_width`
+// pixels wide — a thinner one widened with its opacity lowered by the same factor, so its
+// coverage (width x opacity) is kept — and drawn a pixel wider, the fragment shader weighting
+// each pixel by how much of it the strip covers across (a box-filtered edge).
+fn hair_camera_vertex(v: SegmentIn, filtered: bool) -> CameraOut {
     var out: CameraOut;
-    let toward = normalize(hair.eye.xyz - v.position);
-    let w = hair_expand(v.position, v.side, v.tangent, v.width.x, toward);
-    out.clip = hair.camera * vec4<f32>(w, 1.0);
+    let p = hair_end(v, false, hair.camera_widen);
+    let across = hair_across(p.tangent, normalize(hair.eye.xyz - p.position));
+    var width = p.width;
+    var alpha = p.alpha;
+    var footprint = 0.0;
+    let pixels = hair_pixel_width(p.position, across, width);
+    if (filtered && hair.min_pixel_width > 0.0 && pixels > 0.0) {
+        footprint = max(pixels, hair.min_pixel_width);
+        alpha = alpha * pixels / footprint;
+        width = width * (footprint + 1.0) / pixels;
+    }
+    let side = hair_side(v.corner);
+    let w = p.position + across * (side * 0.5 * width);
+    let clip = hair.camera * vec4<f32>(w, 1.0);
+    out.clip = select(HAIR_CULLED, clip, p.drawn);
     out.world = w;
-    out.tangent = v.tangent;
-    out.color = v.color;
-    out.alpha = v.opacity.x;
+    out.tangent = p.tangent;
+    out.color = p.color;
+    out.alpha = alpha;
+    out.view_depth = length(w - hair.eye.xyz);
+    out.across_px = side * 0.5 * (footprint + 1.0) * f32(footprint > 0.0);
+    out.footprint = footprint;
     return out;
+}
+
+// The shading set facing the camera, filtered (the blended pass).
+@vertex
+fn hair_vs_camera(v: SegmentIn) -> CameraOut {
+    return hair_camera_vertex(v, true);
+}
+
+// The shading set facing the camera at its own width (the opaque draw).
+@vertex
+fn hair_vs_camera_opaque(v: SegmentIn) -> CameraOut {
+    return hair_camera_vertex(v, false);
+}
+
+// The share of a pixel a filtered strip covers across: the overlap of the pixel's span with
+// the strip's; 1 for a strip drawn as it is.
+fn hair_coverage(in: CameraOut) -> f32 {
+    if (in.footprint <= 0.0) {
+        return 1.0;
+    }
+    let d = abs(in.across_px);
+    return clamp(min(d + 0.5, 0.5 * in.footprint) - max(d - 0.5, -0.5 * in.footprint), 0.0, 1.0);
 }
 
 // The lit colour of a camera fragment.
@@ -241,10 +378,16 @@ fn hair_shade(in: CameraOut) -> vec3<f32> {
     return hair_kajiya_kay(t, hair.to_light.xyz, normalize(hair.eye.xyz - in.world), in.color, vis);
 }
 
-// The weight of a fragment at view depth `z` with opacity `a` (McGuire & Bavoil 2013, eq. 10):
-// nearer fragments weigh more where several overlap.
+// The weight of a fragment at view depth `z` with opacity `a` in the order-independent blend:
+// the light a ray keeps after crossing the hair in front of it, exp(-oit_falloff x t) at the
+// share t of the hair box's depth, `oit_falloff` being the hair's optical depth across the box
+// (twice its opacity-weighted area over the box's volume, times the box's depth); so dense hair's
+// outer layer outweighs its self-shadowed inner ones as sorting would, and sparse hair blends
+// evenly. Bounded in [1e-4, 1]: no realistic fragment count overflows a half-float
+// accumulator.
 fn hair_oit_weight(z: f32, a: f32) -> f32 {
-    return a * clamp(0.03 / (1e-5 + pow(z / 200.0, 4.0)), 1e-2, 3e3);
+    let t = clamp((z - hair.depth_range.x) / max(hair.depth_range.y - hair.depth_range.x, 1e-6), 0.0, 1.0);
+    return a * max(exp(-hair.oit_falloff * t), 1e-4);
 }
 
 struct OitOut {
@@ -255,8 +398,9 @@ struct OitOut {
 @fragment
 fn hair_fs_oit(in: CameraOut) -> OitOut {
     let c = hair_shade(in);
-    let w = hair_oit_weight(in.clip.w, in.alpha);
-    return OitOut(vec4<f32>(c * in.alpha * w, in.alpha * w), vec4<f32>(in.alpha));
+    let alpha = in.alpha * hair_coverage(in);
+    let w = hair_oit_weight(in.view_depth, alpha);
+    return OitOut(vec4<f32>(c * alpha * w, alpha * w), vec4<f32>(alpha));
 }
 
 @fragment
