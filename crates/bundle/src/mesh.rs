@@ -211,6 +211,13 @@ impl MeshData {
         )
     }
 
+    /// The bytes of each element of accessor `a` of this mesh (little-endian components), for
+    /// streams of any component type. The accessor must have been checked against the payload
+    /// ([`MeshDesc::check`]).
+    pub fn elements<'a>(&'a self, a: &'a Accessor) -> impl Iterator<Item = &'a [u8]> + 'a {
+        read_elements(&self.bytes, a)
+    }
+
     /// Reads the index stream widened to u32.
     pub fn read_indices(&self) -> Option<Vec<u32>> {
         let a = self.desc.indices.as_ref()?;

@@ -1,0 +1,75 @@
+//! hikage-bevy: hikage bundles as Bevy assets.
+//!
+//! Add [`HikagePlugin`] and load a bundle's manifest: `asset_server.load("bundle/bundle.ron")`
+//! gives a [`HikageBundle`] whose payloads are labelled sub-assets, each under its asset id —
+//! `bundle/bundle.ron#terrain.horizon` is an [`Image`] (3D stays 3D, arrays stay arrays, every
+//! mip level kept), `bundle/bundle.ron#head.strips` a [`Mesh`] with the kind's streams as
+//! custom vertex attributes ([`attributes`]). Every payload's size and BLAKE3 are checked as
+//! the core's readers check them, and a bad bundle is a Bevy load error naming the asset.
+//! With Bevy's `file_watcher`, a bake that replaces the manifest (atomically) reloads it.
+//!
+//! ```no_run
+//! use bevy_app::App;
+//! use bevy_asset::{AssetApp, AssetPlugin, AssetServer, Handle};
+//! use hikage_bevy::{HikageBundle, HikagePlugin};
+//!
+//! let mut app = App::new();
+//! app.add_plugins((bevy_app::TaskPoolPlugin::default(), AssetPlugin::default(), HikagePlugin));
+//! let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+//! ```
+
+pub mod attributes;
+mod loader;
+
+use bevy_app::{App, Plugin};
+use bevy_asset::{Asset, AssetApp, Handle};
+use bevy_image::Image;
+use bevy_mesh::Mesh;
+use bevy_reflect::TypePath;
+
+pub use hikage_bundle::{Asset as ManifestAsset, Manifest, Settings};
+pub use loader::{BundleLoadError, BundleLoader};
+
+/// Registers the [`HikageBundle`] asset and its loader (`.ron` manifests named `bundle.ron`),
+/// and Bevy's [`Image`] and [`Mesh`] assets if no other plugin has.
+pub struct HikagePlugin;
+
+impl Plugin for HikagePlugin {
+    fn build(&self, app: &mut App) {
+        app.init_asset::<Image>().init_asset::<Mesh>().init_asset::<HikageBundle>().register_asset_loader(BundleLoader);
+    }
+}
+
+/// A loaded bundle: its manifest, and a handle to each payload as a labelled sub-asset.
+#[derive(Asset, TypePath, Debug)]
+pub struct HikageBundle {
+    /// The manifest: every asset's kind, settings and payload description.
+    pub manifest: Manifest,
+    /// The texture assets' images, in manifest order (their ids in `image_ids`).
+    #[dependency]
+    pub images: Vec<Handle<Image>>,
+    /// The ids of `images`.
+    pub image_ids: Vec<String>,
+    /// The mesh assets' meshes, in manifest order (their ids in `mesh_ids`).
+    #[dependency]
+    pub meshes: Vec<Handle<Mesh>>,
+    /// The ids of `meshes`.
+    pub mesh_ids: Vec<String>,
+}
+
+impl HikageBundle {
+    /// The image of texture asset `id`.
+    pub fn image(&self, id: &str) -> Option<&Handle<Image>> {
+        self.image_ids.iter().position(|i| i == id).map(|k| &self.images[k])
+    }
+
+    /// The mesh of mesh asset `id`.
+    pub fn mesh(&self, id: &str) -> Option<&Handle<Mesh>> {
+        self.mesh_ids.iter().position(|i| i == id).map(|k| &self.meshes[k])
+    }
+
+    /// The manifest entry of asset `id`: kind, settings, payload description.
+    pub fn asset(&self, id: &str) -> Option<&ManifestAsset> {
+        self.manifest.asset(id)
+    }
+}

@@ -1,0 +1,182 @@
+//! The [`AssetLoader`] of `bundle.ron`: the manifest, then every payload as a labelled
+//! sub-asset, each checked (size, BLAKE3, contents) as the core's readers check it.
+
+use std::path::Path;
+
+use bevy_asset::io::Reader;
+use bevy_asset::{AssetLoader, LoadContext, RenderAssetUsages};
+use bevy_image::{CompressedImageFormats, Image, ImageSampler, ImageType};
+use bevy_mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues};
+use bevy_reflect::TypePath;
+use hikage_bundle::{Asset as ManifestAsset, AssetKind, ComponentType, Limits, Manifest, MeshData, MeshDesc, Payload};
+
+use crate::HikageBundle;
+
+/// Loads a hikage bundle's `bundle.ron` (registered by [`crate::HikagePlugin`] for `.ron`).
+#[derive(Debug, Default, TypePath)]
+pub struct BundleLoader;
+
+/// Why a bundle did not load: the manifest, or one asset, named.
+#[derive(Debug, thiserror::Error)]
+pub enum BundleLoadError {
+    /// The manifest cannot be read or used.
+    #[error("{path}: {message}")]
+    Manifest {
+        /// The manifest's asset path.
+        path: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// An asset's payload is missing, damaged or of a kind Bevy cannot hold.
+    #[error("{path}: asset `{asset}`: {message}")]
+    Asset {
+        /// The manifest's asset path.
+        path: String,
+        /// The asset id.
+        asset: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+impl AssetLoader for BundleLoader {
+    type Asset = HikageBundle;
+    type Settings = ();
+    type Error = BundleLoadError;
+
+    async fn load(
+        &self,
+        reader: &mut dyn Reader,
+        _: &(),
+        context: &mut LoadContext<'_>,
+    ) -> Result<HikageBundle, BundleLoadError> {
+        let path = context.path().to_string();
+        let manifest_error = |message: String| BundleLoadError::Manifest { path: path.clone(), message };
+        let limits = Limits::default();
+        let mut text = Vec::new();
+        reader.read_to_end(&mut text).await.map_err(|e| manifest_error(e.to_string()))?;
+        if text.len() as u64 > limits.max_manifest_bytes {
+            return Err(manifest_error(format!(
+                "{} bytes, above the limit of {}",
+                text.len(),
+                limits.max_manifest_bytes
+            )));
+        }
+        let text = String::from_utf8(text).map_err(|e| manifest_error(format!("expected UTF-8 text: {e}")))?;
+        let manifest = Manifest::parse(&text, Path::new(&path)).map_err(|e| manifest_error(e.to_string()))?;
+        if let Some((asset, message)) =
+            hikage_bundle::validate::manifest_problems(&manifest, &limits).into_iter().next()
+        {
+            return Err(BundleLoadError::Asset { path, asset, message });
+        }
+        let mut bundle = HikageBundle {
+            manifest: manifest.clone(),
+            images: Vec::new(),
+            image_ids: Vec::new(),
+            meshes: Vec::new(),
+            mesh_ids: Vec::new(),
+        };
+        for asset in &manifest.assets {
+            let bad = |message: String| BundleLoadError::Asset { path: path.clone(), asset: asset.id.clone(), message };
+            let payload_path = context.path().path().with_file_name(&asset.file);
+            let bytes = context.read_asset_bytes(payload_path).await.map_err(|e| bad(e.to_string()))?;
+            check(asset, &bytes, &limits).map_err(&bad)?;
+            match &asset.payload {
+                Payload::Texture(_) => {
+                    let image = Image::from_buffer(
+                        &bytes,
+                        ImageType::Extension("ktx2"),
+                        CompressedImageFormats::NONE,
+                        false,
+                        ImageSampler::Default,
+                        RenderAssetUsages::default(),
+                    )
+                    .map_err(|e| bad(format!("Bevy's KTX2 reader: {e}")))?;
+                    bundle.images.push(context.add_labeled_asset(asset.id.clone(), image));
+                    bundle.image_ids.push(asset.id.clone());
+                }
+                Payload::Mesh(desc) => {
+                    let mesh = mesh(asset.kind, &MeshData { desc: desc.clone(), bytes }).map_err(&bad)?;
+                    bundle.meshes.push(context.add_labeled_asset(asset.id.clone(), mesh));
+                    bundle.mesh_ids.push(asset.id.clone());
+                }
+            }
+        }
+        Ok(bundle)
+    }
+
+    fn extensions(&self) -> &[&str] {
+        &["ron"]
+    }
+}
+
+/// The payload's length and BLAKE3 against the manifest, then its contents as every reader
+/// checks them.
+fn check(asset: &ManifestAsset, bytes: &[u8], limits: &Limits) -> Result<(), String> {
+    if bytes.len() as u64 != asset.byte_length {
+        return Err(format!("payload is {} bytes, the manifest says {}", bytes.len(), asset.byte_length));
+    }
+    let hash = blake3::hash(bytes).to_hex();
+    if hash.as_str() != asset.blake3 {
+        return Err(format!("payload BLAKE3 {hash} does not match the manifest's {}", asset.blake3));
+    }
+    hikage_bundle::check_payload(asset, bytes, Path::new(&asset.file), limits).map_err(|e| e.to_string())
+}
+
+/// A Bevy mesh of a mesh payload: each stream as its attribute ([`crate::attributes`]), U32
+/// triangle indices where there are any; strands (no indices) are a point list of records.
+fn mesh(kind: AssetKind, data: &MeshData) -> Result<Mesh, String> {
+    let desc: &MeshDesc = &data.desc;
+    let strands = kind == AssetKind::Strands;
+    let topology = if desc.indices.is_some() { PrimitiveTopology::TriangleList } else { PrimitiveTopology::PointList };
+    let mut mesh = Mesh::new(topology, RenderAssetUsages::default());
+    for a in &desc.attributes {
+        let attribute = crate::attributes::for_stream(&a.name, a.components, strands)
+            .ok_or_else(|| format!("stream `{}` has no Bevy attribute", a.name))?;
+        let values = values(data, a).ok_or_else(|| {
+            format!("stream `{}`: {:?} × {} is not a vertex format", a.name, a.component, a.components)
+        })?;
+        let format = bevy_mesh::VertexFormat::from(&values);
+        if format != attribute.format {
+            return Err(format!("stream `{}` is {format:?}, expected {:?}", a.name, attribute.format));
+        }
+        mesh.try_insert_attribute(attribute, values).map_err(|e| e.to_string())?;
+    }
+    if let Some(indices) = data.read_indices() {
+        mesh.insert_indices(Indices::U32(indices));
+    }
+    Ok(mesh)
+}
+
+/// The values of stream `a` in the vertex format its component type and count make (integer
+/// streams as unorm, but a strand record's `strand` and `strand_id` as uint).
+fn values(data: &MeshData, a: &hikage_bundle::Accessor) -> Option<VertexAttributeValues> {
+    let f32s = |e: &[u8], k: usize| f32::from_le_bytes([e[4 * k], e[4 * k + 1], e[4 * k + 2], e[4 * k + 3]]);
+    let u16s = |e: &[u8], k: usize| u16::from_le_bytes([e[2 * k], e[2 * k + 1]]);
+    let elements = data.elements(a);
+    Some(match (a.component, a.components, a.name.as_str()) {
+        (ComponentType::F32, 1, _) => VertexAttributeValues::Float32(elements.map(|e| f32s(e, 0)).collect()),
+        (ComponentType::F32, 2, _) => {
+            VertexAttributeValues::Float32x2(elements.map(|e| [0, 1].map(|k| f32s(e, k))).collect())
+        }
+        (ComponentType::F32, 3, _) => {
+            VertexAttributeValues::Float32x3(elements.map(|e| [0, 1, 2].map(|k| f32s(e, k))).collect())
+        }
+        (ComponentType::F32, 4, _) => {
+            VertexAttributeValues::Float32x4(elements.map(|e| [0, 1, 2, 3].map(|k| f32s(e, k))).collect())
+        }
+        (ComponentType::U16, 2, "strand") => {
+            VertexAttributeValues::Uint16x2(elements.map(|e| [0, 1].map(|k| u16s(e, k))).collect())
+        }
+        (ComponentType::U16, 2, _) => {
+            VertexAttributeValues::Unorm16x2(elements.map(|e| [0, 1].map(|k| u16s(e, k))).collect())
+        }
+        (ComponentType::U8, 4, _) => {
+            VertexAttributeValues::Unorm8x4(elements.map(|e| [e[0], e[1], e[2], e[3]]).collect())
+        }
+        (ComponentType::U32, 1, _) => {
+            VertexAttributeValues::Uint32(elements.map(|e| u32::from_le_bytes([e[0], e[1], e[2], e[3]])).collect())
+        }
+        _ => return None,
+    })
+}
