@@ -2,7 +2,7 @@
 //! checkout with an empty bundle taking everything from it, a damaged entry found and rebaked,
 //! and the size bound.
 
-use crate::util::{Dir, stdout};
+use crate::util::{Dir, counts, stdout};
 
 const PIPELINE: &str = r#"(output: "bundle", jobs: [
     Horizon(id: "cylinders", input: "data/cylinders.png", height_scale: 4, directions: 8, edge: Wrap),
@@ -13,16 +13,6 @@ const PIPELINE: &str = r#"(output: "bundle", jobs: [
 
 fn checkout(name: &str) -> Dir {
     Dir::with_pipeline(name, PIPELINE)
-}
-
-/// `(baked, from the cache)` of a bake's report line.
-fn counts(line: &str) -> (usize, usize) {
-    let after = |key: &str| {
-        line.split(key)
-            .nth(1)
-            .map_or(0, |s| s.trim_start().split(|c: char| !c.is_ascii_digit()).next().unwrap().parse().unwrap())
-    };
-    (after("baked"), after("from the cache"))
 }
 
 fn payloads(dir: &Dir) -> std::collections::BTreeMap<String, Vec<u8>> {

@@ -6,7 +6,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use crate::util::{Dir, snapshot, stderr, stdout};
+use crate::util::{Dir, counts, snapshot, stderr, stdout};
 
 /// A little-endian TIFF of one sample per pixel, `bits` deep, of `SampleFormat` `format`
 /// (1 unsigned, 2 signed, 3 float), its `data` in strips of `rows_per_strip` rows, with a
@@ -369,16 +369,6 @@ fn entries(cache: &Path) -> BTreeMap<std::path::PathBuf, Vec<String>> {
         }
     }
     found
-}
-
-/// `(baked, from the cache)` of a bake's report line.
-fn counts(line: &str) -> (usize, usize) {
-    let after = |key: &str| {
-        line.split(key)
-            .nth(1)
-            .map_or(0, |s| s.trim_start().split(|c: char| !c.is_ascii_digit()).next().unwrap().parse().unwrap())
-    };
-    (after("baked"), after("from the cache"))
 }
 
 const CACHED: &str = r#"(output: "bundle", jobs: [

@@ -215,3 +215,13 @@ pub fn shared_bundle(name: &str, pipeline: &str) -> PathBuf {
         })
         .clone()
 }
+
+/// `(baked, from the cache)` of a bake's report line.
+pub fn counts(line: &str) -> (usize, usize) {
+    let after = |key: &str| {
+        line.split(key)
+            .nth(1)
+            .map_or(0, |s| s.trim_start().split(|c: char| !c.is_ascii_digit()).next().unwrap().parse().unwrap())
+    };
+    (after("baked"), after("from the cache"))
+}
