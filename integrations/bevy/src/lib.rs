@@ -11,34 +11,60 @@
 //! ```no_run
 //! use bevy_app::App;
 //! use bevy_asset::{AssetApp, AssetPlugin, AssetServer, Handle};
-//! use hikage_bevy::{HikageBundle, HikagePlugin};
+//! use hikage_bevy::{HikageAssetsPlugin, HikageBundle};
 //!
 //! let mut app = App::new();
-//! app.add_plugins((bevy_app::TaskPoolPlugin::default(), AssetPlugin::default(), HikagePlugin));
+//! app.add_plugins((bevy_app::TaskPoolPlugin::default(), AssetPlugin::default(), HikageAssetsPlugin));
 //! let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
 //! ```
 
 pub mod attributes;
+mod grid;
 mod loader;
+mod shaders;
+pub mod terrain;
 
-use bevy_app::{App, Plugin};
+use bevy_app::{App, Plugin, Update};
 use bevy_asset::{Asset, AssetApp, Handle};
+use bevy_ecs::component::Component;
 use bevy_image::Image;
 use bevy_mesh::Mesh;
+use bevy_pbr::MaterialPlugin;
 use bevy_reflect::TypePath;
 
+pub use grid::GRID_LABEL;
 pub use hikage_bundle::{Asset as ManifestAsset, Manifest, Settings};
 pub use loader::{BundleLoadError, BundleLoader};
+pub use terrain::{HorizonTerrain, TerrainExtension, TerrainMaterial};
 
-/// Registers the [`HikageBundle`] asset and its loader (`.ron` manifests named `bundle.ron`),
-/// and Bevy's [`Image`] and [`Mesh`] assets if no other plugin has.
+/// The whole integration: [`HikageAssetsPlugin`], the materials and the systems that build
+/// [`HorizonTerrain`]s. Add it after Bevy's `DefaultPlugins` (it needs the render and PBR
+/// plugins).
 pub struct HikagePlugin;
 
 impl Plugin for HikagePlugin {
     fn build(&self, app: &mut App) {
+        app.add_plugins((HikageAssetsPlugin, MaterialPlugin::<TerrainMaterial>::default()));
+        shaders::register(app);
+        app.add_systems(Update, terrain::build_terrains);
+    }
+}
+
+/// Bundles as assets only: the [`HikageBundle`] asset and its loader (`.ron` manifests named
+/// `bundle.ron`), and Bevy's [`Image`] and [`Mesh`] assets if no other plugin has. For apps
+/// without a renderer (asset processing, servers); [`HikagePlugin`] includes it.
+pub struct HikageAssetsPlugin;
+
+impl Plugin for HikageAssetsPlugin {
+    fn build(&self, app: &mut App) {
         app.init_asset::<Image>().init_asset::<Mesh>().init_asset::<HikageBundle>().register_asset_loader(BundleLoader);
     }
 }
+
+/// Why hikage could not build an entity's component (a missing or mistyped asset id): set on
+/// the entity, and logged once, until the component or its bundle changes.
+#[derive(Component, Clone, Debug, PartialEq)]
+pub struct HikageError(pub String);
 
 /// A loaded bundle: its manifest, and a handle to each payload as a labelled sub-asset.
 #[derive(Asset, TypePath, Debug)]
@@ -55,6 +81,11 @@ pub struct HikageBundle {
     pub meshes: Vec<Handle<Mesh>>,
     /// The ids of `meshes`.
     pub mesh_ids: Vec<String>,
+    /// Each heightfield's grid mesh (labelled `<id>/grid`), in manifest order.
+    #[dependency]
+    pub grids: Vec<Handle<Mesh>>,
+    /// The heightfield ids of `grids`.
+    pub grid_ids: Vec<String>,
 }
 
 impl HikageBundle {
@@ -66,6 +97,12 @@ impl HikageBundle {
     /// The mesh of mesh asset `id`.
     pub fn mesh(&self, id: &str) -> Option<&Handle<Mesh>> {
         self.mesh_ids.iter().position(|i| i == id).map(|k| &self.meshes[k])
+    }
+
+    /// The grid mesh of heightfield asset `id`: texel centres in the terrain frame (x along
+    /// +u, y up, z along +v), normals, UVs.
+    pub fn grid(&self, id: &str) -> Option<&Handle<Mesh>> {
+        self.grid_ids.iter().position(|i| i == id).map(|k| &self.grids[k])
     }
 
     /// The manifest entry of asset `id`: kind, settings, payload description.

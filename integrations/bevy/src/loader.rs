@@ -5,10 +5,14 @@ use std::path::Path;
 
 use bevy_asset::io::Reader;
 use bevy_asset::{AssetLoader, LoadContext, RenderAssetUsages};
-use bevy_image::{CompressedImageFormats, Image, ImageSampler, ImageType};
+use bevy_image::{
+    CompressedImageFormats, Image, ImageAddressMode, ImageFilterMode, ImageSampler, ImageSamplerDescriptor, ImageType,
+};
 use bevy_mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues};
 use bevy_reflect::TypePath;
-use hikage_bundle::{Asset as ManifestAsset, AssetKind, ComponentType, Limits, Manifest, MeshData, MeshDesc, Payload};
+use hikage_bundle::{
+    Asset as ManifestAsset, AssetKind, ComponentType, EdgeMode, Limits, Manifest, MeshData, MeshDesc, Payload, Settings,
+};
 
 use crate::HikageBundle;
 
@@ -75,6 +79,8 @@ impl AssetLoader for BundleLoader {
             image_ids: Vec::new(),
             meshes: Vec::new(),
             mesh_ids: Vec::new(),
+            grids: Vec::new(),
+            grid_ids: Vec::new(),
         };
         for asset in &manifest.assets {
             let bad = |message: String| BundleLoadError::Asset { path: path.clone(), asset: asset.id.clone(), message };
@@ -88,10 +94,18 @@ impl AssetLoader for BundleLoader {
                         ImageType::Extension("ktx2"),
                         CompressedImageFormats::NONE,
                         false,
-                        ImageSampler::Default,
+                        sampler(&asset.settings),
                         RenderAssetUsages::default(),
                     )
                     .map_err(|e| bad(format!("Bevy's KTX2 reader: {e}")))?;
+                    if let Settings::Heightfield(settings) = &asset.settings {
+                        let heights = hikage_bundle::ktx2_file::decode(&bytes, Path::new(&asset.file), &limits)
+                            .map_err(|e| bad(e.to_string()))?;
+                        let grid = crate::grid::grid_mesh(&heights, settings).map_err(&bad)?;
+                        let label = format!("{}/{}", asset.id, crate::grid::GRID_LABEL);
+                        bundle.grids.push(context.add_labeled_asset(label, grid));
+                        bundle.grid_ids.push(asset.id.clone());
+                    }
                     bundle.images.push(context.add_labeled_asset(asset.id.clone(), image));
                     bundle.image_ids.push(asset.id.clone());
                 }
@@ -108,6 +122,29 @@ impl AssetLoader for BundleLoader {
     fn extensions(&self) -> &[&str] {
         &["ron"]
     }
+}
+
+/// The sampler a texture asset wants, as `hikage-runtime` samples it: a horizon map filters
+/// linearly, wraps its azimuth axis (2π → 0) and repeats or clamps u and v as its bake's edge
+/// mode says (a terrain's edge texels are not blended with the far side); others keep Bevy's
+/// default.
+fn sampler(settings: &Settings) -> ImageSampler {
+    let Settings::Horizon(horizon) = settings else {
+        return ImageSampler::Default;
+    };
+    let uv = match horizon.edge {
+        EdgeMode::Wrap => ImageAddressMode::Repeat,
+        EdgeMode::Clamp => ImageAddressMode::ClampToEdge,
+    };
+    ImageSampler::Descriptor(ImageSamplerDescriptor {
+        label: Some("hikage horizon".into()),
+        address_mode_u: uv,
+        address_mode_v: uv,
+        address_mode_w: ImageAddressMode::Repeat,
+        mag_filter: ImageFilterMode::Linear,
+        min_filter: ImageFilterMode::Linear,
+        ..ImageSamplerDescriptor::default()
+    })
 }
 
 /// The payload's length and BLAKE3 against the manifest, then its contents as every reader

@@ -9,7 +9,7 @@ use bevy_app::{App, TaskPoolPlugin};
 use bevy_asset::{AssetPlugin, AssetServer, Assets, Handle, LoadState};
 use bevy_image::Image;
 use bevy_mesh::{Mesh, VertexAttributeValues};
-use hikage_bevy::{HikageBundle, HikagePlugin, attributes};
+use hikage_bevy::{HikageAssetsPlugin, HikageBundle, attributes};
 use hikage_bundle::{
     BundleWriter, MeshData, Settings, StrandPoint, StrandsSettings, TextureData, TextureDesc, TextureDimension,
     TextureFormat, WriteMode, strands_desc,
@@ -90,7 +90,7 @@ fn app(root: &Path) -> App {
     app.add_plugins((
         TaskPoolPlugin::default(),
         AssetPlugin { file_path: root.to_string_lossy().into_owned(), ..Default::default() },
-        HikagePlugin,
+        HikageAssetsPlugin,
     ));
     app
 }

@@ -1,0 +1,131 @@
+//! A headless Bevy app for the render tests: Bevy's default plugins without a window or winit,
+//! pumped frame by frame, rendering to an image that is read back; and a bundle baked by
+//! hikage-bake from the repository's sample data.
+
+#![allow(dead_code, reason = "each test file uses part of it")]
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+use bevy::app::SubApps;
+use bevy::asset::RenderAssetUsages;
+use bevy::camera::RenderTarget;
+use bevy::prelude::*;
+use bevy::render::RenderPlugin;
+use bevy::render::render_resource::{PollType, TextureFormat};
+use bevy::render::renderer::RenderDevice;
+use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
+use bevy::window::ExitCondition;
+use bevy::winit::WinitPlugin;
+
+/// The repository's root (two levels above this crate).
+pub fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").canonicalize().unwrap()
+}
+
+/// Bakes `jobs` (pipeline.ron job entries over the repository's `data/`) into a fresh
+/// directory `name` under the target directory; returns that directory (the bundle is its
+/// `bundle/`).
+pub fn bake(name: &str, jobs: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let data = repo_root().join("data");
+    let jobs = jobs.replace("data/", &format!("{}/", data.display()));
+    std::fs::write(dir.join("pipeline.ron"), format!("(output: \"bundle\", jobs: [{jobs}])")).unwrap();
+    hikage_bake::build::BuildScript::new(dir.join("pipeline.ron")).into_pipeline_output().run().unwrap();
+    dir
+}
+
+/// True when a Vulkan/GL/Metal adapter exists; panics instead of skipping under
+/// `HIKAGE_REQUIRE_GPU=1`.
+pub fn gpu_or_skip(test: &str) -> bool {
+    use hikage_runtime::wgpu;
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+    let adapter = bevy::tasks::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()));
+    match adapter {
+        Ok(_) => true,
+        Err(e) if std::env::var("HIKAGE_REQUIRE_GPU").as_deref() != Ok("1") => {
+            eprintln!("skipping {test}: no GPU adapter ({e}); set HIKAGE_REQUIRE_GPU=1 to make this a failure");
+            false
+        }
+        Err(e) => panic!("{test}: HIKAGE_REQUIRE_GPU=1 but no GPU adapter: {e}"),
+    }
+}
+
+/// A Bevy app with no window, its update loop driven by the test.
+pub struct Headless(pub SubApps);
+
+impl Headless {
+    /// Default plugins (no winit, no primary window, pipelines compiled in the frame that needs
+    /// them), assets read from `assets`, then `setup`.
+    pub fn new(assets: &Path, setup: impl FnOnce(&mut App)) -> Headless {
+        let mut app = App::new();
+        app.add_plugins(
+            DefaultPlugins
+                .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
+                .set(RenderPlugin { synchronous_pipeline_compilation: true, ..default() })
+                .set(AssetPlugin { file_path: assets.to_string_lossy().into_owned(), ..default() })
+                .disable::<WinitPlugin>(),
+        );
+        setup(&mut app);
+        app.finish();
+        app.cleanup();
+        Headless(std::mem::take(app.sub_apps_mut()))
+    }
+
+    /// The main world.
+    pub fn world(&mut self) -> &mut World {
+        self.0.main.world_mut()
+    }
+
+    /// One frame, waited for.
+    pub fn update(&mut self) {
+        self.0.update();
+        self.0
+            .main
+            .world()
+            .resource::<RenderDevice>()
+            .wgpu_device()
+            .poll(PollType::Wait { submission_index: None, timeout: None })
+            .unwrap();
+    }
+
+    /// Frames until `done` holds, at most `frames`.
+    pub fn update_until(&mut self, frames: usize, mut done: impl FnMut(&mut World) -> bool) -> bool {
+        for _ in 0..frames {
+            self.update();
+            if done(self.world()) {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// A `width` × `height` sRGB colour target.
+    pub fn target(&mut self, width: u32, height: u32) -> Handle<Image> {
+        let mut image = Image::new_target_texture(width, height, TextureFormat::Rgba8UnormSrgb, None);
+        image.asset_usage = RenderAssetUsages::RENDER_WORLD;
+        self.world().resource_mut::<Assets<Image>>().add(image)
+    }
+
+    /// Renders a frame and reads `target` back: linear RGB per pixel, row-major.
+    pub fn capture(&mut self, target: &Handle<Image>) -> Vec<[f32; 3]> {
+        let shot: Arc<Mutex<Option<Image>>> = Arc::default();
+        let slot = shot.clone();
+        self.world().spawn(Screenshot(RenderTarget::from(target.clone()))).observe(
+            move |captured: On<ScreenshotCaptured>| {
+                *slot.lock().unwrap() = Some(captured.image.clone());
+            },
+        );
+        let captured = self.update_until(20, |_| shot.lock().unwrap().is_some());
+        assert!(captured, "no screenshot after 20 frames");
+        let image = shot.lock().unwrap().take().unwrap();
+        let bytes = image.data.expect("screenshot data");
+        let linear = |c: u8| {
+            let c = c as f32 / 255.0;
+            if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+        };
+        bytes.chunks_exact(4).map(|p| [linear(p[0]), linear(p[1]), linear(p[2])]).collect()
+    }
+}

@@ -1,0 +1,99 @@
+//! The terrain material rendered by Bevy on a GPU (lavapipe in CI) against hikage-runtime's CPU
+//! reference of the same horizon test: the lit/shadow mask seen from above agrees on ≥ 98% of
+//! the pixels, as the raw-wgpu terrain component does.
+
+mod common;
+
+use bevy::camera::ScalingMode;
+use bevy::core_pipeline::tonemapping::DebandDither;
+use bevy::light::{GlobalAmbientLight, NotShadowCaster, SunDisk};
+use bevy::prelude::*;
+use bevy::render::view::{Msaa, Tonemapping};
+use hikage_bevy::{HikageBundle, HikagePlugin, HorizonTerrain, TerrainMaterial};
+use hikage_runtime::CpuBundle;
+use hikage_runtime::glam;
+use hikage_runtime::horizon::reference::{HorizonMap, horizon_sun_visible};
+
+use common::{Headless, bake, gpu_or_skip};
+
+const SIZE: u32 = 512;
+
+#[test]
+fn terrain_mask_matches_the_cpu_reference() {
+    if !gpu_or_skip("terrain_mask_matches_the_cpu_reference") {
+        return;
+    }
+    let dir = bake(
+        "terrain",
+        r#"Horizon(id: "terrain", input: "data/terrain.png", texel_size: (80, 60), height_scale: 1500,
+                   directions: 32, edge: Clamp, ao: true)"#,
+    );
+    let (w, h, sx, sy) = (512.0f32, 512.0f32, 80.0f32, 60.0f32);
+    let (ex, ez) = (w * sx / 2.0, h * sy / 2.0);
+    // The sun at 45° in the world between +x (u) and +z (v), 9° up.
+    let elevation = 9f32.to_radians();
+    let sun = Vec3::new(elevation.cos() * 0.5f32.sqrt(), elevation.sin(), elevation.cos() * 0.5f32.sqrt());
+
+    let mut app = Headless::new(&dir, |app| {
+        app.add_plugins(HikagePlugin).insert_resource(GlobalAmbientLight { brightness: 0.0, ..default() });
+    });
+    let target = app.target(SIZE, SIZE);
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    let world = app.world();
+    world.spawn((HorizonTerrain::new(bundle, "terrain.horizon"), NotShadowCaster));
+    world.spawn((
+        DirectionalLight { illuminance: 2000.0, shadow_maps_enabled: true, ..default() },
+        Transform::IDENTITY.looking_to(-sun, Vec3::Y),
+    ));
+    world.spawn((
+        Camera3d::default(),
+        bevy::camera::RenderTarget::from(target.clone()),
+        Projection::Orthographic(OrthographicProjection {
+            scaling_mode: ScalingMode::Fixed { width: 2.0 * ex, height: 2.0 * ez },
+            near: 0.0,
+            far: 10_000.0,
+            ..OrthographicProjection::default_3d()
+        }),
+        Transform::from_xyz(ex, 4000.0, ez).looking_at(Vec3::new(ex, 0.0, ez), Vec3::NEG_Z),
+        Msaa::Off,
+        Tonemapping::None,
+        DebandDither::Disabled,
+    ));
+    let built =
+        app.update_until(600, |world| world.query::<&MeshMaterial3d<TerrainMaterial>>().iter(world).next().is_some());
+    assert!(built, "the terrain was not built");
+    let shadowed = app.capture(&target);
+    let material = app.world().query::<&MeshMaterial3d<TerrainMaterial>>().single(app.world()).unwrap().0.clone();
+    app.world().resource_mut::<Assets<TerrainMaterial>>().get_mut(&material).unwrap().extension.uniform.horizon = 0;
+    let open = app.capture(&target);
+
+    let cpu = CpuBundle::read_prefix(&dir.join("bundle"), "terrain.").unwrap();
+    let asset = cpu.asset("terrain.horizon").unwrap();
+    let map = HorizonMap::new(asset.texture().unwrap(), asset.asset.settings.horizon().unwrap(), true).unwrap();
+    let bump_sun = glam::Vec3::new(sun.x, sun.z, sun.y);
+    let radius = 0.5 * SunDisk::EARTH.angular_size;
+    let (mut checked, mut agree, mut lit) = (0usize, 0usize, 0usize);
+    for row in 0..SIZE {
+        for col in 0..SIZE {
+            let k = (row * SIZE + col) as usize;
+            if open[k][1] < 0.02 {
+                continue; // facing away from the sun, or off the terrain
+            }
+            let uv = glam::Vec2::new((col as f32 + 0.5) / w, (row as f32 + 0.5) / h);
+            let reference = horizon_sun_visible(&map, uv, bump_sun, glam::Vec2::new(sx, sy), radius) >= 0.5;
+            let bevy = shadowed[k][1] >= 0.5 * open[k][1];
+            checked += 1;
+            lit += reference as usize;
+            agree += (reference == bevy) as usize;
+        }
+    }
+    let share = agree as f64 / checked as f64;
+    eprintln!(
+        "bevy terrain: {checked} pixels, {:.1}% lit; the Bevy render agrees with the CPU reference on {:.2}%",
+        100.0 * lit as f64 / checked as f64,
+        100.0 * share
+    );
+    assert!(checked > 150_000, "{checked} pixels face the sun");
+    assert!((0.2..0.95).contains(&(lit as f64 / checked as f64)), "a low sun casts long shadows");
+    assert!(share >= 0.98, "{:.2}% agree", 100.0 * share);
+}
