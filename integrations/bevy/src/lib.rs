@@ -18,9 +18,11 @@
 //! let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
 //! ```
 
+mod attach;
 pub mod attributes;
 mod grid;
 mod loader;
+pub mod relief;
 mod shaders;
 pub mod terrain;
 
@@ -35,6 +37,7 @@ use bevy_reflect::TypePath;
 pub use grid::GRID_LABEL;
 pub use hikage_bundle::{Asset as ManifestAsset, Manifest, Settings};
 pub use loader::{BundleLoadError, BundleLoader};
+pub use relief::{ReliefExtension, ReliefMaterial, ReliefSurface};
 pub use terrain::{HorizonTerrain, TerrainExtension, TerrainMaterial};
 
 /// The whole integration: [`HikageAssetsPlugin`], the materials and the systems that build
@@ -44,9 +47,13 @@ pub struct HikagePlugin;
 
 impl Plugin for HikagePlugin {
     fn build(&self, app: &mut App) {
-        app.add_plugins((HikageAssetsPlugin, MaterialPlugin::<TerrainMaterial>::default()));
+        app.add_plugins((
+            HikageAssetsPlugin,
+            MaterialPlugin::<TerrainMaterial>::default(),
+            MaterialPlugin::<ReliefMaterial>::default(),
+        ));
         shaders::register(app);
-        app.add_systems(Update, terrain::build_terrains);
+        app.add_systems(Update, (attach::attach::<HorizonTerrain>, attach::attach::<ReliefSurface>));
     }
 }
 
@@ -103,6 +110,15 @@ impl HikageBundle {
     /// +u, y up, z along +v), normals, UVs.
     pub fn grid(&self, id: &str) -> Option<&Handle<Mesh>> {
         self.grid_ids.iter().position(|i| i == id).map(|k| &self.grids[k])
+    }
+
+    /// The image of texture asset `id`, which must be of `kind`; or why not.
+    pub fn image_of_kind(&self, id: &str, kind: hikage_bundle::AssetKind) -> Result<Handle<Image>, String> {
+        let asset = self.asset(id).ok_or_else(|| format!("no asset `{id}` in the bundle"))?;
+        if asset.kind != kind {
+            return Err(format!("asset `{id}` is a {:?}, expected a {kind:?}", asset.kind));
+        }
+        self.image(id).cloned().ok_or_else(|| format!("asset `{id}` has no image"))
     }
 
     /// The manifest entry of asset `id`: kind, settings, payload description.

@@ -2,18 +2,19 @@
 //! grid drawn with [`TerrainMaterial`] — Bevy's `StandardMaterial` whose first directional
 //! light is shadowed by the baked horizon map and whose occlusion is the baked AO.
 
-use bevy_asset::{Asset, AssetEvent, Assets, Handle};
+use bevy_asset::{Asset, Handle};
 use bevy_ecs::prelude::*;
 use bevy_image::Image;
 use bevy_math::Vec2;
-use bevy_mesh::{Mesh, Mesh3d};
-use bevy_pbr::{ExtendedMaterial, MaterialExtension, MeshMaterial3d, StandardMaterial};
+use bevy_mesh::Mesh;
+use bevy_pbr::{ExtendedMaterial, MaterialExtension, StandardMaterial};
 use bevy_reflect::Reflect;
 use bevy_render::render_resource::{AsBindGroup, ShaderType};
 use bevy_shader::ShaderRef;
 use hikage_bundle::{AssetKind, Settings, TextureFormat};
 
-use crate::{HikageBundle, HikageError};
+use crate::HikageBundle;
+use crate::attach::FromBundle;
 
 /// Bevy's `StandardMaterial` with horizon shadows and baked ambient occlusion.
 pub type TerrainMaterial = ExtendedMaterial<StandardMaterial, TerrainExtension>;
@@ -27,8 +28,7 @@ pub type TerrainMaterial = ExtendedMaterial<StandardMaterial, TerrainExtension>;
 /// terrain (other casters on it, and the terrain on itself): the two visibilities multiply.
 ///
 /// ```no_run
-/// # use bevy_ecs::prelude::*;
-/// # use bevy_asset::AssetServer;
+/// use bevy::prelude::*;
 /// use hikage_bevy::HorizonTerrain;
 ///
 /// fn setup(mut commands: Commands, assets: Res<AssetServer>) {
@@ -114,73 +114,37 @@ impl MaterialExtension for TerrainExtension {
     }
 }
 
-/// What a terrain's assets give: its grid, its material's extension.
-fn terrain_parts(bundle: &HikageBundle, terrain: &HorizonTerrain) -> Result<(Handle<Mesh>, TerrainExtension), String> {
-    let asset =
-        bundle.asset(&terrain.horizon).ok_or_else(|| format!("no asset `{}` in the bundle", terrain.horizon))?;
-    let Settings::Horizon(settings) = &asset.settings else {
-        return Err(format!("asset `{}` is a {:?}, expected a Horizon", terrain.horizon, asset.kind));
-    };
-    let format = asset.payload.texture().map(|d| d.format);
-    let horizon =
-        bundle.image(&terrain.horizon).cloned().ok_or_else(|| format!("asset `{}` has no image", asset.id))?;
-    let grid = bundle
-        .grid(&settings.heightfield)
-        .cloned()
-        .ok_or_else(|| format!("heightfield `{}` (of `{}`) is not in the bundle", settings.heightfield, asset.id))?;
-    let ao = match &terrain.ao {
-        None => None,
-        Some(id) => {
-            let a = bundle.asset(id).ok_or_else(|| format!("no ambient occlusion asset `{id}` in the bundle"))?;
-            if a.kind != AssetKind::AmbientOcclusion {
-                return Err(format!("asset `{id}` is a {:?}, expected an AmbientOcclusion", a.kind));
-            }
-            Some(bundle.image(id).cloned().ok_or_else(|| format!("asset `{id}` has no image"))?)
-        }
-    };
-    let uniform = TerrainUniform {
-        format: u32::from(format == Some(TextureFormat::Rg8Unorm)),
-        distance_scale: settings.distance_scale,
-        open_sky_slope: settings.open_sky_slope,
-        has_ao: u32::from(ao.is_some()),
-        texel_size: Vec2::new(settings.texel_size.0, settings.texel_size.1),
-        horizon: 1,
-        _pad: 0,
-    };
-    Ok((grid, TerrainExtension { uniform, horizon, ao }))
-}
+impl FromBundle for HorizonTerrain {
+    type Material = TerrainMaterial;
 
-/// A terrain entity as [`build_terrains`] sees it: built already, or failed.
-type TerrainState<'a> = (Entity, Ref<'a, HorizonTerrain>, Has<MeshMaterial3d<TerrainMaterial>>, Has<HikageError>);
+    fn bundle(&self) -> &Handle<HikageBundle> {
+        &self.bundle
+    }
 
-/// Gives each [`HorizonTerrain`] its mesh and material once its bundle has loaded, and again
-/// when the component changes or the bundle is reloaded.
-pub(crate) fn build_terrains(
-    mut commands: Commands,
-    mut events: MessageReader<AssetEvent<HikageBundle>>,
-    bundles: Res<Assets<HikageBundle>>,
-    mut materials: ResMut<Assets<TerrainMaterial>>,
-    terrains: Query<TerrainState>,
-) {
-    let reloaded: Vec<_> =
-        events.read().filter_map(|e| if let AssetEvent::Modified { id } = e { Some(*id) } else { None }).collect();
-    for (entity, terrain, built, failed) in &terrains {
-        let stale = terrain.is_changed() || reloaded.contains(&terrain.bundle.id());
-        if (built || failed) && !stale {
-            continue;
-        }
-        let Some(bundle) = bundles.get(&terrain.bundle) else {
-            continue;
+    fn build(&self, bundle: &HikageBundle) -> Result<(TerrainMaterial, Option<Handle<Mesh>>), String> {
+        let asset = bundle.asset(&self.horizon).ok_or_else(|| format!("no asset `{}` in the bundle", self.horizon))?;
+        let Settings::Horizon(settings) = &asset.settings else {
+            return Err(format!("asset `{}` is a {:?}, expected a Horizon", self.horizon, asset.kind));
         };
-        match terrain_parts(bundle, &terrain) {
-            Ok((grid, extension)) => {
-                let material = materials.add(ExtendedMaterial { base: terrain.base.clone(), extension });
-                commands.entity(entity).remove::<HikageError>().insert((Mesh3d(grid), MeshMaterial3d(material)));
-            }
-            Err(message) => {
-                bevy_log::error!("hikage terrain: {message}");
-                commands.entity(entity).insert(HikageError(message));
-            }
-        }
+        let format = asset.payload.texture().map(|d| d.format);
+        let horizon = bundle.image(&asset.id).cloned().ok_or_else(|| format!("asset `{}` has no image", asset.id))?;
+        let grid = bundle.grid(&settings.heightfield).cloned().ok_or_else(|| {
+            format!("heightfield `{}` (of `{}`) is not in the bundle", settings.heightfield, asset.id)
+        })?;
+        let ao = match &self.ao {
+            None => None,
+            Some(id) => Some(bundle.image_of_kind(id, AssetKind::AmbientOcclusion)?),
+        };
+        let uniform = TerrainUniform {
+            format: u32::from(format == Some(TextureFormat::Rg8Unorm)),
+            distance_scale: settings.distance_scale,
+            open_sky_slope: settings.open_sky_slope,
+            has_ao: u32::from(ao.is_some()),
+            texel_size: Vec2::new(settings.texel_size.0, settings.texel_size.1),
+            horizon: 1,
+            _pad: 0,
+        };
+        let extension = TerrainExtension { uniform, horizon, ao };
+        Ok((ExtendedMaterial { base: self.base.clone(), extension }, Some(grid)))
     }
 }

@@ -109,8 +109,24 @@ impl Headless {
         self.world().resource_mut::<Assets<Image>>().add(image)
     }
 
+    /// The world ray through the centre of pixel (`col`, `row`) of the one camera.
+    pub fn pixel_ray(&mut self, col: u32, row: u32) -> Ray3d {
+        let world = self.world();
+        let (camera, transform) = world.query::<(&Camera, &GlobalTransform)>().single(world).unwrap();
+        camera.viewport_to_world(transform, Vec2::new(col as f32 + 0.5, row as f32 + 0.5)).unwrap()
+    }
+
     /// Renders a frame and reads `target` back: linear RGB per pixel, row-major.
     pub fn capture(&mut self, target: &Handle<Image>) -> Vec<[f32; 3]> {
+        let linear = |c: u8| {
+            let c = c as f32 / 255.0;
+            if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+        };
+        self.capture_bytes(target).into_iter().map(|p| [linear(p[0]), linear(p[1]), linear(p[2])]).collect()
+    }
+
+    /// Renders a frame and reads `target` back as it is stored: RGBA bytes per pixel.
+    pub fn capture_bytes(&mut self, target: &Handle<Image>) -> Vec<[u8; 4]> {
         let shot: Arc<Mutex<Option<Image>>> = Arc::default();
         let slot = shot.clone();
         self.world().spawn(Screenshot(RenderTarget::from(target.clone()))).observe(
@@ -122,10 +138,6 @@ impl Headless {
         assert!(captured, "no screenshot after 20 frames");
         let image = shot.lock().unwrap().take().unwrap();
         let bytes = image.data.expect("screenshot data");
-        let linear = |c: u8| {
-            let c = c as f32 / 255.0;
-            if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
-        };
-        bytes.chunks_exact(4).map(|p| [linear(p[0]), linear(p[1]), linear(p[2])]).collect()
+        bytes.chunks_exact(4).map(|p| [p[0], p[1], p[2], p[3]]).collect()
     }
 }
