@@ -20,6 +20,7 @@
 
 mod attach;
 pub mod attributes;
+pub mod curved;
 mod grid;
 mod loader;
 pub mod relief;
@@ -34,6 +35,7 @@ use bevy_mesh::Mesh;
 use bevy_pbr::MaterialPlugin;
 use bevy_reflect::TypePath;
 
+pub use curved::{CurvedExtension, CurvedMaterial, CurvedSurface};
 pub use grid::GRID_LABEL;
 pub use hikage_bundle::{Asset as ManifestAsset, Manifest, Settings};
 pub use loader::{BundleLoadError, BundleLoader};
@@ -51,9 +53,13 @@ impl Plugin for HikagePlugin {
             HikageAssetsPlugin,
             MaterialPlugin::<TerrainMaterial>::default(),
             MaterialPlugin::<ReliefMaterial>::default(),
+            MaterialPlugin::<CurvedMaterial>::default(),
         ));
         shaders::register(app);
-        app.add_systems(Update, (attach::attach::<HorizonTerrain>, attach::attach::<ReliefSurface>));
+        app.add_systems(
+            Update,
+            (attach::attach::<HorizonTerrain>, attach::attach::<ReliefSurface>, attach::attach::<CurvedSurface>),
+        );
     }
 }
 

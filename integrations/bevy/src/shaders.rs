@@ -8,6 +8,8 @@ use bevy_shader::Shader;
 
 /// The terrain material's fragment shader.
 pub(crate) const TERRAIN: &str = "embedded://hikage_bevy/shaders/terrain.wesl";
+/// The curved-surface material's vertex and fragment shader.
+pub(crate) const CURVED: &str = "embedded://hikage_bevy/shaders/curved.wesl";
 /// The relief material's fragment shader.
 pub(crate) const RELIEF: &str = "embedded://hikage_bevy/shaders/relief.wesl";
 
@@ -48,6 +50,7 @@ pub(crate) fn register(app: &mut App) {
     bevy_shader::load_shader_library!(app, "shaders/output.wesl");
     bevy_shader::load_shader_library!(app, "shaders/terrain.wesl");
     bevy_shader::load_shader_library!(app, "shaders/relief.wesl");
+    bevy_shader::load_shader_library!(app, "shaders/curved.wesl");
     let mut shaders = app.world_mut().resource_mut::<Assets<Shader>>();
     let libraries = [("horizon", hikage_runtime::horizon::HORIZON_WGSL.to_string()), ("relief", relief_library())]
         .map(|(name, source)| shaders.add(Shader::from_wesl(source, format!("embedded://hikage_bevy/{name}.wesl"))));
