@@ -22,15 +22,18 @@ mod attach;
 pub mod attributes;
 pub mod curved;
 mod grid;
+pub mod light_fit;
 mod loader;
 pub mod relief;
 mod shaders;
 pub mod terrain;
 
-use bevy_app::{App, Plugin, Update};
+use bevy_app::{App, Plugin, PostUpdate, Update};
 use bevy_asset::{Asset, AssetApp, Handle};
 use bevy_ecs::component::Component;
+use bevy_ecs::schedule::IntoScheduleConfigs;
 use bevy_image::Image;
+use bevy_light::SimulationLightSystems;
 use bevy_mesh::Mesh;
 use bevy_pbr::MaterialPlugin;
 use bevy_reflect::TypePath;
@@ -38,6 +41,7 @@ use bevy_reflect::TypePath;
 pub use curved::{CurvedExtension, CurvedMaterial, CurvedSurface};
 pub use grid::GRID_LABEL;
 pub use hikage_bundle::{Asset as ManifestAsset, Manifest, Settings};
+pub use light_fit::FittedShadows;
 pub use loader::{BundleLoadError, BundleLoader};
 pub use relief::{ReliefExtension, ReliefMaterial, ReliefSurface};
 pub use terrain::{HorizonTerrain, TerrainExtension, TerrainMaterial};
@@ -59,6 +63,12 @@ impl Plugin for HikagePlugin {
         app.add_systems(
             Update,
             (attach::attach::<HorizonTerrain>, attach::attach::<ReliefSurface>, attach::attach::<CurvedSurface>),
+        );
+        app.add_systems(
+            PostUpdate,
+            light_fit::fit_shadows
+                .after(SimulationLightSystems::UpdateDirectionalLightCascades)
+                .before(SimulationLightSystems::UpdateLightFrusta),
         );
     }
 }
