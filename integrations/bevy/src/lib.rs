@@ -29,7 +29,7 @@ mod shaders;
 pub mod terrain;
 
 use bevy_app::{App, Plugin, PostUpdate, Update};
-use bevy_asset::{Asset, AssetApp, Handle};
+use bevy_asset::{Asset, AssetApp, Assets, Handle};
 use bevy_ecs::component::Component;
 use bevy_ecs::schedule::IntoScheduleConfigs;
 use bevy_image::Image;
@@ -80,7 +80,15 @@ pub struct HikageAssetsPlugin;
 
 impl Plugin for HikageAssetsPlugin {
     fn build(&self, app: &mut App) {
-        app.init_asset::<Image>().init_asset::<Mesh>().init_asset::<HikageBundle>().register_asset_loader(BundleLoader);
+        // `init_asset` replaces the storage: only where no other plugin (Bevy's image or mesh
+        // plugin) has made one, or the images and meshes it holds would be lost.
+        if !app.world().contains_resource::<Assets<Image>>() {
+            app.init_asset::<Image>();
+        }
+        if !app.world().contains_resource::<Assets<Mesh>>() {
+            app.init_asset::<Mesh>();
+        }
+        app.init_asset::<HikageBundle>().register_asset_loader(BundleLoader);
     }
 }
 

@@ -2,6 +2,7 @@
 //! reference on a CPU rasterisation of the same mesh: the baked sphere with the cylinder bumps,
 //! lit or shadowed by the curvature-corrected horizon test.
 
+#[path = "../examples/common/mod.rs"]
 mod common;
 
 use bevy::camera::ScalingMode;

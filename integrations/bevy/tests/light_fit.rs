@@ -1,6 +1,7 @@
 //! A directional light whose shadow map is fitted to the visible geometry, rendered by Bevy
 //! (lavapipe in CI): the shadow a box casts on the ground agrees with a ray-cast reference.
 
+#[path = "../examples/common/mod.rs"]
 mod common;
 
 use bevy::core_pipeline::tonemapping::DebandDither;

@@ -179,3 +179,21 @@ fn a_damaged_payload_fails_the_load_naming_its_asset() {
         other => panic!("expected a failed load, found {other:?}"),
     }
 }
+
+/// Images and meshes a game (or Bevy's own plugins: the tonemapping LUTs) added before the
+/// plugin are still there after it: the plugin keeps the asset storage it finds.
+#[test]
+fn the_plugin_keeps_images_and_meshes_added_before_it() {
+    use bevy_asset::AssetApp;
+    let mut app = App::new();
+    app.add_plugins((TaskPoolPlugin::default(), AssetPlugin::default()));
+    app.init_asset::<Image>().init_asset::<Mesh>();
+    let image = app.world_mut().resource_mut::<Assets<Image>>().add(Image::default());
+    let mesh = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(Mesh::new(bevy_mesh::PrimitiveTopology::TriangleList, bevy_asset::RenderAssetUsages::default()));
+    app.add_plugins(HikageAssetsPlugin);
+    assert!(app.world().resource::<Assets<Image>>().get(&image).is_some(), "an image added before the plugin");
+    assert!(app.world().resource::<Assets<Mesh>>().get(&mesh).is_some(), "a mesh added before the plugin");
+}

@@ -2,6 +2,7 @@
 //! of the same pixel: where the view ray hits (read back through a texture coding each texel's
 //! column and row) and whether the hit is lit.
 
+#[path = "../examples/common/mod.rs"]
 mod common;
 
 use bevy::asset::RenderAssetUsages;

@@ -2,6 +2,7 @@
 //! reference of the same horizon test: the lit/shadow mask seen from above agrees on ≥ 98% of
 //! the pixels, as the raw-wgpu terrain component does.
 
+#[path = "../examples/common/mod.rs"]
 mod common;
 
 use bevy::camera::ScalingMode;

@@ -1,8 +1,9 @@
-//! A headless Bevy app for the render tests: Bevy's default plugins without a window or winit,
-//! pumped frame by frame, rendering to an image that is read back; and a bundle baked by
-//! hikage-bake from the repository's sample data.
+//! What the examples and render tests share: [`run`], which opens an example in a window where
+//! a display exists and otherwise renders it headless to a PNG; a headless Bevy app (default
+//! plugins without a window or winit, pumped frame by frame, rendering to an image that is read
+//! back); and bundles baked by hikage-bake from the repository's sample data.
 
-#![allow(dead_code, reason = "each test file uses part of it")]
+#![allow(dead_code, reason = "each example and test uses part of it")]
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -27,7 +28,7 @@ pub fn repo_root() -> PathBuf {
 /// directory `name` under the target directory; returns that directory (the bundle is its
 /// `bundle/`).
 pub fn bake(name: &str, jobs: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let dir = option_env!("CARGO_TARGET_TMPDIR").map_or_else(std::env::temp_dir, PathBuf::from).join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let data = repo_root().join("data");
@@ -53,7 +54,66 @@ pub fn gpu_or_skip(test: &str) -> bool {
     }
 }
 
-/// A Bevy app with no window, its update loop driven by the test.
+/// Runs an example whose scene `build` adds (the bundle under the repository root, as the
+/// README's bake leaves it): in a window when `DISPLAY` or `WAYLAND_DISPLAY` is set, otherwise
+/// headless, saving the frame to the path given as the first argument (default
+/// `target/<name>.png` in this crate).
+pub fn run(name: &str, build: impl FnOnce(&mut App)) {
+    let root = repo_root();
+    if !root.join("bundle/bundle.ron").exists() {
+        eprintln!("{name}: no bundle at {}: bake it first (`cargo run --release -- bake` there)", root.display());
+        std::process::exit(1);
+    }
+    if std::env::var_os("DISPLAY").is_some() || std::env::var_os("WAYLAND_DISPLAY").is_some() {
+        let mut app = App::new();
+        app.add_plugins((
+            DefaultPlugins.set(AssetPlugin { file_path: root.to_string_lossy().into_owned(), ..default() }),
+            hikage_bevy::HikagePlugin,
+        ));
+        build(&mut app);
+        app.run();
+        return;
+    }
+    let out = std::env::args().nth(1).map_or_else(
+        || Path::new(env!("CARGO_MANIFEST_DIR")).join("target").join(format!("{name}.png")),
+        PathBuf::from,
+    );
+    let mut app = Headless::new(&root, |app| {
+        app.add_plugins(hikage_bevy::HikagePlugin);
+        build(app);
+    });
+    let (width, height) = (960, 540);
+    let target = app.target(width, height);
+    // Every camera renders into the image.
+    let image = target.clone();
+    app.world().add_observer(move |added: On<Add<Camera>>, mut commands: Commands| {
+        commands.entity(added.entity).insert(RenderTarget::from(image.clone()));
+    });
+    let built = app.update_until(600, |world| pending(world) == 0);
+    assert!(built, "{name}: the scene's assets did not load");
+    app.update_until(3, |_| false);
+    let pixels = app.capture_bytes(&target);
+    let bytes: Vec<u8> = pixels.iter().flat_map(|p| [p[0], p[1], p[2]]).collect();
+    image::save_buffer(&out, &bytes, width, height, image::ColorType::Rgb8).unwrap();
+    println!("{name}: no display; rendered headless to {}", out.display());
+}
+
+/// hikage components whose bundle has not given them a material (or an error) yet.
+fn pending(world: &mut World) -> usize {
+    use hikage_bevy::*;
+    world
+        .query_filtered::<(), (
+            Or<(With<HorizonTerrain>, With<ReliefSurface>, With<CurvedSurface>)>,
+            Without<MeshMaterial3d<TerrainMaterial>>,
+            Without<MeshMaterial3d<ReliefMaterial>>,
+            Without<MeshMaterial3d<CurvedMaterial>>,
+            Without<HikageError>,
+        )>()
+        .iter(world)
+        .count()
+}
+
+/// A Bevy app with no window, its update loop driven by the caller.
 pub struct Headless(pub SubApps);
 
 impl Headless {
