@@ -1,21 +1,39 @@
-//! hikage-bevy: hikage bundles as Bevy assets.
+//! hikage-bevy: hikage's baked shadowing data in Bevy 0.20, through Bevy's own assets and
+//! materials.
 //!
-//! Add [`HikagePlugin`] and load a bundle's manifest: `asset_server.load("bundle/bundle.ron")`
-//! gives a [`HikageBundle`] whose payloads are labelled sub-assets, each under its asset id —
-//! `bundle/bundle.ron#terrain.horizon` is an [`Image`] (3D stays 3D, arrays stay arrays, every
-//! mip level kept), `bundle/bundle.ron#head.strips` a [`Mesh`] with the kind's streams as
-//! custom vertex attributes ([`attributes`]). Every payload's size and BLAKE3 are checked as
-//! the core's readers check them, and a bad bundle is a Bevy load error naming the asset.
-//! With Bevy's `file_watcher`, a bake that replaces the manifest (atomically) reloads it.
+//! [`HikagePlugin`] loads a bundle's `bundle.ron` as a [`HikageBundle`] whose payloads are
+//! labelled sub-assets (`bundle/bundle.ron#terrain.horizon` is an [`Image`], 3D kept;
+//! `bundle/bundle.ron#sphere` a [`Mesh`] with its streams as attributes, [`attributes`]), and
+//! draws each method with a `StandardMaterial` extension built when the bundle has loaded:
+//!
+//! - [`HorizonTerrain`]: a heightfield with baked horizon shadows and ambient occlusion;
+//! - [`ReliefSurface`]: relief mapping with self-shadowing on any mesh with tangents;
+//! - [`CurvedSurface`]: a bump map's horizon shadows corrected for a mesh's curvature;
+//! - [`FittedShadows`]: a directional light's shadow map fitted to the visible geometry.
+//!
+//! A whole terrain scene:
 //!
 //! ```no_run
-//! use bevy_app::App;
-//! use bevy_asset::{AssetApp, AssetPlugin, AssetServer, Handle};
-//! use hikage_bevy::{HikageAssetsPlugin, HikageBundle};
+//! use bevy::prelude::*;
+//! use hikage_bevy::{HikagePlugin, HorizonTerrain};
 //!
-//! let mut app = App::new();
-//! app.add_plugins((bevy_app::TaskPoolPlugin::default(), AssetPlugin::default(), HikageAssetsPlugin));
-//! let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+//! fn main() {
+//!     App::new().add_plugins((DefaultPlugins, HikagePlugin)).add_systems(Startup, setup).run();
+//! }
+//!
+//! fn setup(mut commands: Commands, assets: Res<AssetServer>) {
+//!     let bundle = assets.load("bundle/bundle.ron");
+//!     commands.spawn(HorizonTerrain::new(bundle, "terrain.horizon").with_ao("terrain.ao"));
+//!     commands.spawn((
+//!         DirectionalLight { illuminance: 6_000.0, shadow_maps_enabled: true, ..default() },
+//!         Transform::default().looking_to(Vec3::new(-1.0, -0.25, -0.5), Vec3::Y),
+//!     ));
+//!     commands.spawn((
+//!         Camera3d::default(),
+//!         Projection::Perspective(PerspectiveProjection { far: 200_000.0, ..default() }),
+//!         Transform::from_xyz(20_000.0, 16_000.0, 50_000.0).looking_at(Vec3::new(20_000.0, 0.0, 14_000.0), Vec3::Y),
+//!     ));
+//! }
 //! ```
 
 mod attach;

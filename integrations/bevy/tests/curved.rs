@@ -5,19 +5,16 @@
 #[path = "../examples/common/mod.rs"]
 mod common;
 
-use bevy::camera::ScalingMode;
-use bevy::core_pipeline::tonemapping::DebandDither;
-use bevy::light::{GlobalAmbientLight, NotShadowCaster};
+use bevy::light::NotShadowCaster;
 use bevy::prelude::*;
-use bevy::render::view::{Msaa, Tonemapping};
-use hikage_bevy::{CurvedMaterial, CurvedSurface, HikageBundle, HikagePlugin};
+use hikage_bevy::{CurvedMaterial, CurvedSurface, HikageBundle};
 use hikage_runtime::CpuBundle;
 use hikage_runtime::glam;
 use hikage_runtime::horizon::reference::SurfaceReference;
 use hikage_scenes::horizon_sphere::AnalyticSphere;
 use hikage_scenes::raster::{interpolate, rasterise};
 
-use common::{Headless, bake, gpu_or_skip};
+use common::{MaskScene, bake, gpu_or_skip};
 
 const SIZE: u32 = 256;
 
@@ -35,31 +32,15 @@ fn curved_sphere_matches_the_cpu_reference() {
     let sphere = AnalyticSphere::SAMPLE;
     let (radius, extent) = (sphere.radius, 1.05 * sphere.radius);
 
-    let mut app = Headless::new(&dir, |app| {
-        app.add_plugins(HikagePlugin).insert_resource(GlobalAmbientLight { brightness: 0.0, ..default() });
-    });
-    let target = app.target(SIZE, SIZE);
-    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
-    let world = app.world();
-    let surface = world.spawn((CurvedSurface::new(bundle, "sphere", "cylinders.horizon"), NotShadowCaster)).id();
-    world.spawn((
-        DirectionalLight { illuminance: 2000.0, shadow_maps_enabled: true, ..default() },
-        Transform::IDENTITY.looking_to(-light, Vec3::Y),
-    ));
-    world.spawn((
-        Camera3d::default(),
-        bevy::camera::RenderTarget::from(target.clone()),
-        Projection::Orthographic(OrthographicProjection {
-            scaling_mode: ScalingMode::Fixed { width: 2.0 * extent, height: 2.0 * extent },
-            near: 0.0,
-            far: 4.0 * radius,
-            ..OrthographicProjection::default_3d()
-        }),
+    let MaskScene { mut app, target, .. } = MaskScene::new(
+        &dir,
+        SIZE,
+        light,
         Transform::from_xyz(0.0, 0.0, 2.0 * radius).looking_at(Vec3::ZERO, Vec3::Y),
-        Msaa::Off,
-        Tonemapping::None,
-        DebandDither::Disabled,
-    ));
+        MaskScene::orthographic(2.0 * extent, 2.0 * extent, 4.0 * radius),
+    );
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    let surface = app.world().spawn((CurvedSurface::new(bundle, "sphere", "cylinders.horizon"), NotShadowCaster)).id();
     let built = app.update_until(600, |world| world.get::<MeshMaterial3d<CurvedMaterial>>(surface).is_some());
     assert!(built, "the curved material was not built");
     let shadowed = app.capture(&target);

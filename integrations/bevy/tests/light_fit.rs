@@ -4,13 +4,11 @@
 #[path = "../examples/common/mod.rs"]
 mod common;
 
-use bevy::core_pipeline::tonemapping::DebandDither;
-use bevy::light::{CascadeShadowConfig, Cascades, GlobalAmbientLight};
+use bevy::light::{CascadeShadowConfig, Cascades};
 use bevy::prelude::*;
-use bevy::render::view::{Msaa, Tonemapping};
-use hikage_bevy::{FittedShadows, HikagePlugin};
+use hikage_bevy::FittedShadows;
 
-use common::{Headless, gpu_or_skip};
+use common::{MaskScene, gpu_or_skip};
 
 const SIZE: u32 = 256;
 const BOX_MIN: Vec3 = Vec3::new(-1.0, 0.0, -1.0);
@@ -31,11 +29,11 @@ fn fitted_shadow_of_a_box_matches_a_ray_cast() {
     }
     let sun = Vec3::new(1.0, 0.5, 0.6).normalize();
     let eye = Vec3::new(-4.0, 7.0, 9.0);
-    let mut app = Headless::new(&std::env::temp_dir(), |app| {
-        app.add_plugins(HikagePlugin).insert_resource(GlobalAmbientLight { brightness: 0.0, ..default() });
-    });
-    let target = app.target(SIZE, SIZE);
+    let view = Transform::from_translation(eye).looking_at(Vec3::new(-3.0, 0.0, -1.0), Vec3::Y);
+    let MaskScene { mut app, target, light } =
+        MaskScene::new(&std::env::temp_dir(), SIZE, sun, view, Projection::default());
     let world = app.world();
+    world.entity_mut(light).insert(FittedShadows::default());
     let ground = world.resource_mut::<Assets<Mesh>>().add(Plane3d::default().mesh().size(200.0, 200.0).build());
     let cube = world.resource_mut::<Assets<Mesh>>().add(Cuboid::from_corners(BOX_MIN, BOX_MAX)); // centred on the origin
     let white = world
@@ -43,21 +41,6 @@ fn fitted_shadow_of_a_box_matches_a_ray_cast() {
         .add(StandardMaterial { perceptual_roughness: 1.0, ..default() });
     world.spawn((Mesh3d(ground), MeshMaterial3d(white.clone())));
     world.spawn((Mesh3d(cube), MeshMaterial3d(white), Transform::from_translation((BOX_MIN + BOX_MAX) / 2.0)));
-    let light = world
-        .spawn((
-            DirectionalLight { illuminance: 2000.0, shadow_maps_enabled: true, ..default() },
-            Transform::IDENTITY.looking_to(-sun, Vec3::Y),
-            FittedShadows::default(),
-        ))
-        .id();
-    world.spawn((
-        Camera3d::default(),
-        bevy::camera::RenderTarget::from(target.clone()),
-        Transform::from_translation(eye).looking_at(Vec3::new(-3.0, 0.0, -1.0), Vec3::Y),
-        Msaa::Off,
-        Tonemapping::None,
-        DebandDither::Disabled,
-    ));
     app.update_until(10, |_| false);
     let shadowed = app.capture(&target);
     let world = app.world();

@@ -197,3 +197,48 @@ fn the_plugin_keeps_images_and_meshes_added_before_it() {
     assert!(app.world().resource::<Assets<Image>>().get(&image).is_some(), "an image added before the plugin");
     assert!(app.world().resource::<Assets<Mesh>>().get(&mesh).is_some(), "a mesh added before the plugin");
 }
+
+/// A bake that replaces the bundle (what Bevy's file watcher reports as a change to
+/// `bundle.ron`) reloads it: the labelled image keeps its handle and takes the new texels.
+#[test]
+fn a_rebaked_bundle_reloads_into_the_same_handles() {
+    let root = scratch("reload");
+    write_bundle(&root);
+    let mut app = app(&root);
+    let handle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("b/bundle.ron");
+    assert!(matches!(wait(&mut app, &handle), LoadState::Loaded));
+    let image = app.world().resource::<Assets<HikageBundle>>().get(&handle).unwrap().image("t.plane").unwrap().clone();
+    let before = app.world().resource::<Assets<Image>>().get(&image).unwrap().data.clone();
+
+    // The bake: the same ids, the plane's texels doubled.
+    let mut w = BundleWriter::open(&root.join("b"), WriteMode::Update).unwrap();
+    let flat: Vec<f32> = (0..8 * 8).map(|i| 2.0 * i as f32 / 64.0).collect();
+    let desc = TextureDesc {
+        format: TextureFormat::R32Float,
+        dimension: TextureDimension::D2,
+        width: 8,
+        height: 8,
+        depth: 1,
+        layers: 1,
+        levels: 1,
+        supercompression: hikage_bundle::Supercompression::None,
+        channels: vec!["height".into()],
+    };
+    w.put_texture("t.plane", Settings::Generic, "y", &TextureData::from_f32(desc, &flat).unwrap()).unwrap();
+    w.commit().unwrap();
+    app.world().resource::<AssetServer>().reload("b/bundle.ron");
+    let start = Instant::now();
+    let after = loop {
+        app.update();
+        let data = app.world().resource::<Assets<Image>>().get(&image).and_then(|i| i.data.clone());
+        if let Some(data) = data.filter(|d| Some(d) != before.as_ref()) {
+            break data;
+        }
+        assert!(start.elapsed() < Duration::from_secs(60), "the image did not change after the reload");
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    let texels: Vec<f32> = after.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+    assert_eq!(texels, flat);
+    let bundle = app.world().resource::<Assets<HikageBundle>>().get(&handle).unwrap();
+    assert_eq!(bundle.image("t.plane"), Some(&image), "the same handle");
+}

@@ -6,20 +6,17 @@
 mod common;
 
 use bevy::asset::RenderAssetUsages;
-use bevy::core_pipeline::tonemapping::DebandDither;
 use bevy::image::{ImageSampler, ImageSamplerDescriptor};
-use bevy::light::GlobalAmbientLight;
 use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
 use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
-use bevy::render::view::{Msaa, Tonemapping};
-use hikage_bevy::{HikageBundle, HikagePlugin, ReliefMaterial, ReliefSurface};
+use hikage_bevy::{HikageBundle, ReliefMaterial, ReliefSurface};
 use hikage_runtime::CpuBundle;
 use hikage_runtime::glam;
 use hikage_runtime::relief::reference::{ReliefMaps, relief_material_shade};
 use hikage_runtime::relief::{ReliefFrame, ReliefMaterialUniform, Tracer};
 
-use common::{Headless, bake, gpu_or_skip};
+use common::{Headless, MaskScene, bake, gpu_or_skip};
 
 const SIZE: u32 = 256;
 
@@ -65,33 +62,15 @@ fn relief_hits_and_shadows_match_the_cpu_reference() {
     let eye = Vec3::new(0.3, 1.1, 2.0);
     let sun = Vec3::new(-1.0, 0.08, -0.4).normalize();
 
-    let mut app = Headless::new(&dir, |app| {
-        app.add_plugins(HikagePlugin).insert_resource(GlobalAmbientLight { brightness: 0.0, ..default() });
-    });
-    let target = app.target(SIZE, SIZE);
+    let view = Transform::from_translation(eye).looking_at(Vec3::new(0.0, 0.0, 0.1), Vec3::Y);
+    let MaskScene { mut app, target, .. } = MaskScene::new(&dir, SIZE, sun, view, Projection::default());
     let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
     let world = app.world();
     let mesh = world.resource_mut::<Assets<Mesh>>().add(quad());
     let code = world.resource_mut::<Assets<Image>>().add(texel_code(256));
     let coded = StandardMaterial { base_color_texture: Some(code), unlit: true, ..default() };
-    let surface = world
-        .spawn((
-            Mesh3d(mesh),
-            ReliefSurface { ao_stride: 0, ..ReliefSurface::new(bundle, "relief_bricks.relief") }.with_base(coded),
-        ))
-        .id();
-    world.spawn((
-        DirectionalLight { illuminance: 2000.0, shadow_maps_enabled: true, ..default() },
-        Transform::IDENTITY.looking_to(-sun, Vec3::Y),
-    ));
-    world.spawn((
-        Camera3d::default(),
-        bevy::camera::RenderTarget::from(target.clone()),
-        Transform::from_translation(eye).looking_at(Vec3::new(0.0, 0.0, 0.1), Vec3::Y),
-        Msaa::Off,
-        Tonemapping::None,
-        DebandDither::Disabled,
-    ));
+    let surface = ReliefSurface { ao_stride: 0, ..ReliefSurface::new(bundle, "relief_bricks.relief") }.with_base(coded);
+    let surface = world.spawn((Mesh3d(mesh), surface)).id();
     let built = app.update_until(600, |world| world.get::<MeshMaterial3d<ReliefMaterial>>(surface).is_some());
     assert!(built, "the relief material was not built");
     let texels = app.capture_bytes(&target);

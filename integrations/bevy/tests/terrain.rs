@@ -5,17 +5,14 @@
 #[path = "../examples/common/mod.rs"]
 mod common;
 
-use bevy::camera::ScalingMode;
-use bevy::core_pipeline::tonemapping::DebandDither;
-use bevy::light::{GlobalAmbientLight, NotShadowCaster, SunDisk};
+use bevy::light::{NotShadowCaster, SunDisk};
 use bevy::prelude::*;
-use bevy::render::view::{Msaa, Tonemapping};
-use hikage_bevy::{HikageBundle, HikagePlugin, HorizonTerrain, TerrainMaterial};
+use hikage_bevy::{HikageBundle, HorizonTerrain, TerrainMaterial};
 use hikage_runtime::CpuBundle;
 use hikage_runtime::glam;
 use hikage_runtime::horizon::reference::{HorizonMap, horizon_sun_visible};
 
-use common::{Headless, bake, gpu_or_skip};
+use common::{MaskScene, bake, gpu_or_skip};
 
 const SIZE: u32 = 512;
 
@@ -35,31 +32,15 @@ fn terrain_mask_matches_the_cpu_reference() {
     let elevation = 9f32.to_radians();
     let sun = Vec3::new(elevation.cos() * 0.5f32.sqrt(), elevation.sin(), elevation.cos() * 0.5f32.sqrt());
 
-    let mut app = Headless::new(&dir, |app| {
-        app.add_plugins(HikagePlugin).insert_resource(GlobalAmbientLight { brightness: 0.0, ..default() });
-    });
-    let target = app.target(SIZE, SIZE);
-    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
-    let world = app.world();
-    world.spawn((HorizonTerrain::new(bundle, "terrain.horizon"), NotShadowCaster));
-    world.spawn((
-        DirectionalLight { illuminance: 2000.0, shadow_maps_enabled: true, ..default() },
-        Transform::IDENTITY.looking_to(-sun, Vec3::Y),
-    ));
-    world.spawn((
-        Camera3d::default(),
-        bevy::camera::RenderTarget::from(target.clone()),
-        Projection::Orthographic(OrthographicProjection {
-            scaling_mode: ScalingMode::Fixed { width: 2.0 * ex, height: 2.0 * ez },
-            near: 0.0,
-            far: 10_000.0,
-            ..OrthographicProjection::default_3d()
-        }),
+    let MaskScene { mut app, target, .. } = MaskScene::new(
+        &dir,
+        SIZE,
+        sun,
         Transform::from_xyz(ex, 4000.0, ez).looking_at(Vec3::new(ex, 0.0, ez), Vec3::NEG_Z),
-        Msaa::Off,
-        Tonemapping::None,
-        DebandDither::Disabled,
-    ));
+        MaskScene::orthographic(2.0 * ex, 2.0 * ez, 10_000.0),
+    );
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    app.world().spawn((HorizonTerrain::new(bundle, "terrain.horizon"), NotShadowCaster));
     let built =
         app.update_until(600, |world| world.query::<&MeshMaterial3d<TerrainMaterial>>().iter(world).next().is_some());
     assert!(built, "the terrain was not built");

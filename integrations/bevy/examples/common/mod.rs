@@ -201,3 +201,56 @@ impl Headless {
         bytes.chunks_exact(4).map(|p| [p[0], p[1], p[2], p[3]]).collect()
     }
 }
+
+/// A scene for comparing a method's shadow term with a reference: hikage's plugin, no ambient
+/// light, a sun with shadow maps shining from `toward_sun`, and a camera at `view` drawing into
+/// a `size`² sRGB image with nothing of its own on the pixels (no MSAA, tonemapping or dither).
+pub struct MaskScene {
+    /// The app.
+    pub app: Headless,
+    /// The camera's target.
+    pub target: Handle<Image>,
+    /// The sun.
+    pub light: Entity,
+}
+
+impl MaskScene {
+    /// The scene over assets in `assets`.
+    pub fn new(assets: &Path, size: u32, toward_sun: Vec3, view: Transform, projection: Projection) -> MaskScene {
+        use bevy::core_pipeline::tonemapping::DebandDither;
+        use bevy::light::GlobalAmbientLight;
+        use bevy::render::view::{Msaa, Tonemapping};
+        let mut app = Headless::new(assets, |app| {
+            app.add_plugins(hikage_bevy::HikagePlugin)
+                .insert_resource(GlobalAmbientLight { brightness: 0.0, ..default() });
+        });
+        let target = app.target(size, size);
+        let world = app.world();
+        let light = world
+            .spawn((
+                DirectionalLight { illuminance: 2000.0, shadow_maps_enabled: true, ..default() },
+                Transform::IDENTITY.looking_to(-toward_sun, Vec3::Y),
+            ))
+            .id();
+        world.spawn((
+            Camera3d::default(),
+            RenderTarget::from(target.clone()),
+            projection,
+            view,
+            Msaa::Off,
+            Tonemapping::None,
+            DebandDither::Disabled,
+        ));
+        MaskScene { app, target, light }
+    }
+
+    /// An orthographic projection `width` × `height` wide, from 0 to `far`.
+    pub fn orthographic(width: f32, height: f32, far: f32) -> Projection {
+        Projection::Orthographic(OrthographicProjection {
+            scaling_mode: bevy::camera::ScalingMode::Fixed { width, height },
+            near: 0.0,
+            far,
+            ..OrthographicProjection::default_3d()
+        })
+    }
+}
