@@ -13,7 +13,7 @@ use bevy_ecs::prelude::*;
 use bevy_light::cascade::Cascade;
 use bevy_light::{CascadeShadowConfig, Cascades, DirectionalLight, DirectionalLightShadowMap};
 use bevy_math::{Mat4, Vec3A};
-use bevy_mesh::{Indices, Mesh, Mesh3d, VertexAttributeValues};
+use bevy_mesh::{Indices, Mesh, Mesh3d, PrimitiveTopology, VertexAttributeValues};
 use bevy_transform::components::GlobalTransform;
 use hikage_runtime::glam as rg;
 use hikage_runtime::shadow_fit::{self, FitOptions, Light, MeshRef, Scratch, Sphere};
@@ -76,7 +76,11 @@ pub(crate) struct FitState {
     scratch: Scratch,
 }
 
+/// A triangle-list mesh's positions and triangles (other topologies cast no shadow here).
 fn geometry(mesh: &Mesh) -> Option<MeshGeometry> {
+    if mesh.primitive_topology() != PrimitiveTopology::TriangleList {
+        return None;
+    }
     let Some(VertexAttributeValues::Float32x3(positions)) = mesh.attribute(Mesh::ATTRIBUTE_POSITION) else {
         return None;
     };
