@@ -64,6 +64,15 @@ fn default_pipeline_bakes_validates_and_inspects() {
     assert_eq!(find("terrain.horizon")["dimension"], "D3");
     assert_eq!(find("terrain.horizon")["channels"], serde_json::json!(["slope", "distance"]));
     assert_eq!(find("reptile.ao")["kind"], "ambient_occlusion");
+    // GPU memory as uploaded: 512 × 512 × 32 texels of two half floats; a KTX2 file adds its
+    // header on disk; the max-mip pyramid is 256² + 128² + … + 1² half floats.
+    assert_eq!(find("terrain.horizon")["gpu_bytes"], 512 * 512 * 32 * 4);
+    assert!(find("terrain.horizon")["byte_length"].as_u64().unwrap() > 512 * 512 * 32 * 4);
+    let pyramid: u64 = (0..9).map(|k| (256u64 >> k).pow(2) * 2).sum();
+    assert_eq!(find("relief_fbm.maxmip")["gpu_bytes"], pyramid);
+    let sum = |key: &str| assets.iter().map(|a| a[key].as_u64().unwrap()).sum::<u64>();
+    assert_eq!(json["disk_bytes"], sum("byte_length"));
+    assert_eq!(json["gpu_bytes"], sum("gpu_bytes"));
 
     // `validate PIPELINE` checks without baking.
     let out = dir.run(&["validate", "pipeline.ron", "--format", "json"]);

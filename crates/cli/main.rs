@@ -395,16 +395,25 @@ fn inspect(dir: &Path, format: OutputFormat) -> Result<(), Failure> {
             for a in &summary.assets {
                 let dims = a.dimensions.iter().map(u64::to_string).collect::<Vec<_>>().join("×");
                 out!(
-                    "  {:<28} {:<12} {:<12} {:<8} {:<16} {:>10} B  [{}]",
+                    "  {:<28} {:<12} {:<12} {:<8} {:<16} {:>10} B  GPU {:>10} B  [{}]",
                     a.id,
                     a.kind,
                     a.format,
                     a.dimension,
                     dims,
                     a.byte_length,
+                    a.gpu_bytes,
                     a.channels.join(", ")
                 );
             }
+            out!(
+                "  {} assets: {} B on disk ({:.1} MiB), {} B in GPU memory ({:.1} MiB)",
+                summary.assets.len(),
+                summary.disk_bytes,
+                summary.disk_bytes as f64 / 1048576.0,
+                summary.gpu_bytes,
+                summary.gpu_bytes as f64 / 1048576.0
+            );
         }
     }
     Ok(())

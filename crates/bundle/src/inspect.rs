@@ -15,6 +15,10 @@ pub struct AssetSummary {
     pub file: String,
     /// Payload bytes on disk.
     pub byte_length: u64,
+    /// Bytes the asset takes in GPU memory uploaded as stored: a texture's texels over every
+    /// level, slice and layer (after any supercompression is undone), a mesh's streams and
+    /// indices.
+    pub gpu_bytes: u64,
     /// Texel format (`R32Float`, …) or `mesh`.
     pub format: String,
     /// `[width, height, depth, layers]` for textures, `[vertices, indices]` for meshes.
@@ -60,6 +64,20 @@ pub struct Summary {
     pub generator: String,
     /// One entry per asset, sorted by id.
     pub assets: Vec<AssetSummary>,
+    /// The payloads' bytes on disk, all assets (the manifest not counted).
+    pub disk_bytes: u64,
+    /// GPU memory of all assets uploaded as stored.
+    pub gpu_bytes: u64,
+}
+
+/// Texels of every level, slice and layer of `t`, in bytes.
+fn texture_gpu_bytes(t: &crate::TextureDesc) -> u64 {
+    (0..t.levels)
+        .map(|level| {
+            let (w, h, d) = t.level_extent(level);
+            w as u64 * h as u64 * d as u64 * t.layers.max(1) as u64 * t.format.texel_bytes() as u64
+        })
+        .sum()
 }
 
 fn strand_sets(s: &StrandsSettings, points: u64) -> Vec<StrandSet> {
@@ -71,7 +89,7 @@ fn strand_sets(s: &StrandsSettings, points: u64) -> Vec<StrandSet> {
 
 /// Summarises a manifest.
 pub fn summarize(manifest: &Manifest) -> Summary {
-    let assets = manifest
+    let assets: Vec<AssetSummary> = manifest
         .assets
         .iter()
         .map(|a| {
@@ -85,6 +103,7 @@ pub fn summarize(manifest: &Manifest) -> Summary {
                     kind: a.kind.name().into(),
                     file: a.file.clone(),
                     byte_length: a.byte_length,
+                    gpu_bytes: texture_gpu_bytes(t),
                     format: format!("{:?}", t.format),
                     dimensions: vec![t.width as u64, t.height as u64, t.depth as u64, t.layers as u64],
                     dimension: format!("{:?}", t.dimension),
@@ -102,6 +121,7 @@ pub fn summarize(manifest: &Manifest) -> Summary {
                         kind: a.kind.name().into(),
                         file: a.file.clone(),
                         byte_length: a.byte_length,
+                        gpu_bytes: a.byte_length,
                         format: "mesh".into(),
                         dimensions: vec![m.vertex_count as u64, indices],
                         dimension: "mesh".into(),
@@ -119,5 +139,11 @@ pub fn summarize(manifest: &Manifest) -> Summary {
             }
         })
         .collect();
-    Summary { format: manifest.format.to_string(), generator: manifest.generator.clone(), assets }
+    Summary {
+        format: manifest.format.to_string(),
+        generator: manifest.generator.clone(),
+        disk_bytes: assets.iter().map(|a| a.byte_length).sum(),
+        gpu_bytes: assets.iter().map(|a| a.gpu_bytes).sum(),
+        assets,
+    }
 }
