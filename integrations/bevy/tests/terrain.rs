@@ -79,3 +79,45 @@ fn terrain_mask_matches_the_cpu_reference() {
     assert!((0.2..0.95).contains(&(lit as f64 / checked as f64)), "a low sun casts long shadows");
     assert!(share >= 0.98, "{:.2}% agree", 100.0 * share);
 }
+
+/// A rebake of the bundle under a running app (what Bevy's file watcher reports) rebuilds the
+/// terrain's material from the new manifest: a changed texel size reaches the shader's uniform.
+#[test]
+fn a_rebaked_terrain_rebuilds_its_material() {
+    if !gpu_or_skip("a_rebaked_terrain_rebuilds_its_material") {
+        return;
+    }
+    let job = |texel: f32| {
+        format!(
+            r#"Horizon(id: "t", input: "data/cylinders.png", texel_size: ({texel}, {texel}), height_scale: 4, directions: 8, edge: Clamp)"#
+        )
+    };
+    let dir = bake("terrain_reload", &job(1.0));
+    let MaskScene { mut app, .. } = MaskScene::new(
+        &dir,
+        64,
+        Vec3::Y,
+        Transform::from_xyz(64.0, 200.0, 64.0).looking_at(Vec3::new(64.0, 0.0, 64.0), Vec3::NEG_Z),
+        Projection::default(),
+    );
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    let terrain = app.world().spawn(HorizonTerrain::new(bundle, "t.horizon")).id();
+    let material =
+        |app: &mut common::Headless| app.world().get::<MeshMaterial3d<TerrainMaterial>>(terrain).map(|m| m.0.clone());
+    assert!(app.update_until(600, |w| w.get::<MeshMaterial3d<TerrainMaterial>>(terrain).is_some()));
+    let first = material(&mut app).unwrap();
+
+    // The same pipeline with 2-unit texels, baked in place; then the reload the watcher would ask for.
+    let rebaked = bake("terrain_reload_next", &job(2.0));
+    for entry in std::fs::read_dir(rebaked.join("bundle")).unwrap() {
+        let entry = entry.unwrap();
+        std::fs::copy(entry.path(), dir.join("bundle").join(entry.file_name())).unwrap();
+    }
+    app.world().resource::<AssetServer>().reload("bundle/bundle.ron");
+    let rebuilt =
+        app.update_until(600, |w| w.get::<MeshMaterial3d<TerrainMaterial>>(terrain).is_some_and(|m| m.0 != first));
+    assert!(rebuilt, "the material was not rebuilt after the reload");
+    let now = material(&mut app).unwrap();
+    let texel = app.world().resource::<Assets<TerrainMaterial>>().get(&now).unwrap().extension.uniform.texel_size;
+    assert_eq!(texel, Vec2::splat(2.0));
+}
