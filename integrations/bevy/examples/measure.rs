@@ -33,7 +33,7 @@ fn main() {
     assert!(root.join("bundle/bundle.ron").exists(), "bake the default bundle first (`cargo run --release -- bake`)");
     println!(
         "hikage-bevy measurements ({} threads, {}×{} views, lavapipe or the first adapter)",
-        rayon_threads(),
+        threads(),
         VIEW.0,
         VIEW.1
     );
@@ -45,7 +45,7 @@ fn main() {
     texel_density();
 }
 
-fn rayon_threads() -> usize {
+fn threads() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 

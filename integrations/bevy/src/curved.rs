@@ -13,7 +13,7 @@ use bevy_pbr::{
 use bevy_reflect::Reflect;
 use bevy_render::render_resource::{AsBindGroup, RenderPipelineDescriptor, ShaderType, SpecializedMeshPipelineError};
 use bevy_shader::ShaderRef;
-use hikage_bundle::{AssetKind, Settings, TextureFormat};
+use hikage_bundle::{AssetKind, Settings};
 
 use crate::HikageBundle;
 use crate::attach::FromBundle;
@@ -158,11 +158,7 @@ impl FromBundle for CurvedSurface {
         }
         let mesh =
             bundle.mesh(&self.curvature).cloned().ok_or_else(|| format!("asset `{}` has no mesh", self.curvature))?;
-        let horizon = bundle.image_of_kind(&self.horizon, AssetKind::Horizon)?;
-        let map = bundle.asset(&self.horizon).ok_or_else(|| format!("no asset `{}`", self.horizon))?;
-        let Settings::Horizon(settings) = &map.settings else {
-            return Err(format!("asset `{}` has no horizon settings", self.horizon));
-        };
+        let (settings, horizon, encoding) = bundle.horizon(&self.horizon)?;
         let heights = bundle.image_of_kind(&settings.heightfield, AssetKind::Heightfield)?;
         let height_asset =
             bundle.asset(&settings.heightfield).ok_or_else(|| format!("no asset `{}`", settings.heightfield))?;
@@ -176,9 +172,9 @@ impl FromBundle for CurvedSurface {
             size: UVec2::new(desc.width, desc.height),
             height_scale: hf.height_scale,
             height_offset: hf.height_offset,
-            format: u32::from(map.payload.texture().map(|d| d.format) == Some(TextureFormat::Rg8Unorm)),
-            distance_scale: settings.distance_scale,
-            open_sky_slope: settings.open_sky_slope,
+            format: encoding.format,
+            distance_scale: encoding.distance_scale,
+            open_sky_slope: encoding.open_sky_slope,
             test: u32::from(self.corrected),
         };
         let extension = CurvedExtension { uniform, horizon, heights };

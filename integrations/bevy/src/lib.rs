@@ -163,6 +163,22 @@ impl HikageBundle {
         self.image(id).cloned().ok_or_else(|| format!("asset `{id}` has no image"))
     }
 
+    /// Horizon asset `id`: its settings, its image and how its texels are encoded; or why not.
+    pub fn horizon(
+        &self,
+        id: &str,
+    ) -> Result<(&hikage_bundle::HorizonSettings, Handle<Image>, hikage_runtime::horizon::HorizonEncoding), String>
+    {
+        let image = self.image_of_kind(id, hikage_bundle::AssetKind::Horizon)?;
+        let asset = self.asset(id).ok_or_else(|| format!("no asset `{id}` in the bundle"))?;
+        match (&asset.settings, asset.payload.texture()) {
+            (hikage_bundle::Settings::Horizon(settings), Some(desc)) => {
+                Ok((settings, image, hikage_runtime::horizon::HorizonEncoding::new(desc.format, settings)))
+            }
+            _ => Err(format!("asset `{id}` has no horizon settings or texture")),
+        }
+    }
+
     /// The manifest entry of asset `id`: kind, settings, payload description.
     pub fn asset(&self, id: &str) -> Option<&ManifestAsset> {
         self.manifest.asset(id)

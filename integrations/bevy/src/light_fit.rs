@@ -130,11 +130,10 @@ pub(crate) fn fit_shadows(
     let mut instances = Vec::new();
     let mut bounds = Vec::new();
     for (mesh, transform, aabb) in &geometry_entities {
-        let entry = cache.entry(mesh.id()).or_insert_with(|| meshes.get(mesh.id()).and_then(geometry));
-        if entry.is_none() && meshes.get(mesh.id()).is_none() {
-            cache.remove(&mesh.id()); // not loaded yet: try again next frame
-            continue;
-        }
+        let Some(asset) = meshes.get(mesh.id()) else {
+            continue; // not loaded yet
+        };
+        cache.entry(mesh.id()).or_insert_with(|| geometry(asset));
         let world = transform.to_matrix();
         if let Some(aabb) = aabb {
             for k in 0..8 {

@@ -184,17 +184,9 @@ impl FromBundle for ReliefSurface {
         else {
             return Err(format!("asset `{}` or `{}` is not a texture", self.relief, settings.max_mip));
         };
-        let tracing = hikage_runtime::relief::ReliefUniform {
-            size: [max_mip.width, max_mip.height],
-            depth_size: [depth.width, depth.height],
-            levels: max_mip.levels,
-            theta_rows: settings.theta,
-            phi_cols: settings.phi,
-            thickness: settings.depth_scale * max_mip.width as f32,
-            ..Default::default()
-        }
-        .with_tracer(self.tracer)
-        .with_reads(self.rule, self.visibility);
+        let tracing = hikage_runtime::relief::ReliefUniform::for_maps(settings, depth, max_mip)
+            .with_tracer(self.tracer)
+            .with_reads(self.rule, self.visibility);
         let shading =
             ReliefShading { ao_stride: self.ao_stride, shadows: u32::from(self.shadows), bias: self.bias, _pad: 0 };
         let extension = ReliefExtension { shading, heights, depths, tracing: tracing.into() };

@@ -11,7 +11,7 @@ use bevy_pbr::{ExtendedMaterial, MaterialExtension, StandardMaterial};
 use bevy_reflect::Reflect;
 use bevy_render::render_resource::{AsBindGroup, ShaderType};
 use bevy_shader::ShaderRef;
-use hikage_bundle::{AssetKind, Settings, TextureFormat};
+use hikage_bundle::AssetKind;
 
 use crate::HikageBundle;
 use crate::attach::FromBundle;
@@ -122,23 +122,18 @@ impl FromBundle for HorizonTerrain {
     }
 
     fn build(&self, bundle: &HikageBundle) -> Result<(TerrainMaterial, Option<Handle<Mesh>>), String> {
-        let asset = bundle.asset(&self.horizon).ok_or_else(|| format!("no asset `{}` in the bundle", self.horizon))?;
-        let Settings::Horizon(settings) = &asset.settings else {
-            return Err(format!("asset `{}` is a {:?}, expected a Horizon", self.horizon, asset.kind));
-        };
-        let format = asset.payload.texture().map(|d| d.format);
-        let horizon = bundle.image(&asset.id).cloned().ok_or_else(|| format!("asset `{}` has no image", asset.id))?;
+        let (settings, horizon, encoding) = bundle.horizon(&self.horizon)?;
         let grid = bundle.grid(&settings.heightfield).cloned().ok_or_else(|| {
-            format!("heightfield `{}` (of `{}`) is not in the bundle", settings.heightfield, asset.id)
+            format!("heightfield `{}` (of `{}`) is not in the bundle", settings.heightfield, self.horizon)
         })?;
         let ao = match &self.ao {
             None => None,
             Some(id) => Some(bundle.image_of_kind(id, AssetKind::AmbientOcclusion)?),
         };
         let uniform = TerrainUniform {
-            format: u32::from(format == Some(TextureFormat::Rg8Unorm)),
-            distance_scale: settings.distance_scale,
-            open_sky_slope: settings.open_sky_slope,
+            format: encoding.format,
+            distance_scale: encoding.distance_scale,
+            open_sky_slope: encoding.open_sky_slope,
             has_ao: u32::from(ao.is_some()),
             texel_size: Vec2::new(settings.texel_size.0, settings.texel_size.1),
             horizon: 1,

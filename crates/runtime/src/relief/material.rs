@@ -181,15 +181,7 @@ impl ReliefMaterial {
             message: format!("expected a relief asset, found a {}", depth.asset.kind.name()),
         })?;
         let heights = gpu.texture(&settings.max_mip)?;
-        let statics = ReliefUniform {
-            size: [heights.desc.width, heights.desc.height],
-            depth_size: [depth.desc.width, depth.desc.height],
-            levels: heights.desc.levels,
-            theta_rows: settings.theta,
-            phi_cols: settings.phi,
-            thickness: settings.depth_scale * heights.desc.width as f32,
-            ..ReliefUniform::default()
-        };
+        let statics = ReliefUniform::for_maps(settings, &depth.desc, &heights.desc);
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("hikage relief"),
             entries: &[

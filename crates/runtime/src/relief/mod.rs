@@ -18,6 +18,7 @@
 //! WGSL does, so the GPU can be checked against it.
 
 pub use hikage_bundle::relief::DirectionRule;
+use hikage_bundle::{ReliefSettings, TextureDesc};
 
 mod material;
 pub mod reference;
@@ -168,6 +169,22 @@ impl VisibilityPath {
 }
 
 impl ReliefUniform {
+    /// The uniform of a relief asset baked with `settings`: its depth maps `depth` and its
+    /// max-mip pyramid `max_mip` (sizes, levels, direction table, thickness in texels); the
+    /// tracer and read rules at their zero values, set with [`Self::with_tracer`] and
+    /// [`Self::with_reads`].
+    pub fn for_maps(settings: &ReliefSettings, depth: &TextureDesc, max_mip: &TextureDesc) -> ReliefUniform {
+        ReliefUniform {
+            size: [max_mip.width, max_mip.height],
+            depth_size: [depth.width, depth.height],
+            levels: max_mip.levels,
+            theta_rows: settings.theta,
+            phi_cols: settings.phi,
+            thickness: settings.depth_scale * max_mip.width as f32,
+            ..ReliefUniform::default()
+        }
+    }
+
     /// This uniform with `rule` and `visibility` in place of its own.
     pub fn with_reads(self, rule: DirectionRule, visibility: VisibilityPath) -> ReliefUniform {
         let (visibility_steps, visibility_binary) = match visibility {
