@@ -6,8 +6,12 @@
 pub struct DrawOptions {
     /// The colour target at location 0 (format, blending).
     pub color: wgpu::ColorTargetState,
-    /// The depth attachment's format, if the pass has one (tested with `Less` and written).
+    /// The depth attachment's format, if the pass has one (tested with `depth_compare` and
+    /// written).
     pub depth_format: Option<wgpu::TextureFormat>,
+    /// How a fragment's depth passes the test: `Less` for a 0-near, 1-far depth buffer,
+    /// `Greater` for a reversed one (1 near, 0 far, as Bevy and many engines keep it).
+    pub depth_compare: wgpu::CompareFunction,
     /// A second colour target at location 1 receiving each component's visibility per pixel
     /// (of the light and of the sky; see the component), for shadow masks, debugging and tests.
     pub visibility_format: Option<wgpu::TextureFormat>,
@@ -19,11 +23,13 @@ pub struct DrawOptions {
 }
 
 impl DrawOptions {
-    /// An unblended `color_format` target, no depth, no visibility target, no culling, group 0.
+    /// An unblended `color_format` target, no depth (`Less` once one is set), no visibility
+    /// target, no culling, group 0.
     pub fn new(color_format: wgpu::TextureFormat) -> DrawOptions {
         DrawOptions {
             color: wgpu::ColorTargetState { format: color_format, blend: None, write_mask: wgpu::ColorWrites::ALL },
             depth_format: None,
+            depth_compare: wgpu::CompareFunction::Less,
             visibility_format: None,
             cull_mode: None,
             group: 0,

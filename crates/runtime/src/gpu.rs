@@ -104,12 +104,12 @@ pub(crate) fn constant_texture(device: &wgpu::Device, queue: &wgpu::Queue, value
     texture.create_view(&Default::default())
 }
 
-/// Depth testing with `Less` into a `format` attachment, written.
-pub(crate) fn depth_state(format: wgpu::TextureFormat) -> wgpu::DepthStencilState {
+/// Depth testing with `compare` into a `format` attachment, written.
+pub(crate) fn depth_state(format: wgpu::TextureFormat, compare: wgpu::CompareFunction) -> wgpu::DepthStencilState {
     wgpu::DepthStencilState {
         format,
         depth_write_enabled: Some(true),
-        depth_compare: Some(wgpu::CompareFunction::Less),
+        depth_compare: Some(compare),
         stencil: Default::default(),
         bias: Default::default(),
     }
@@ -238,7 +238,7 @@ impl Program {
                     fs,
                     buffers,
                     targets: &targets(options.color.clone(), options.visibility_format),
-                    depth: options.depth_format.map(depth_state),
+                    depth: options.depth_format.map(|f| depth_state(f, options.depth_compare)),
                     cull_mode: options.cull_mode,
                     topology: wgpu::PrimitiveTopology::TriangleList,
                 },

@@ -82,7 +82,7 @@ impl GpuBundle {
     ) -> Result<(), RuntimeError> {
         for id in changes.changed.iter().chain(&changes.added) {
             let Some(a) = cpu.asset(id) else { continue };
-            self.upload_one(device, queue, a)?;
+            self.insert(device, queue, a)?;
         }
         for id in &changes.removed {
             self.textures.remove(id);
@@ -91,7 +91,19 @@ impl GpuBundle {
         Ok(())
     }
 
-    fn upload_one(
+    /// Uploads one decoded asset in place of any asset of its id: for a game (or an engine
+    /// integration) that reads its payloads itself and uploads them as they arrive.
+    ///
+    /// ```no_run
+    /// # fn f(device: &hikage_runtime::wgpu::Device, queue: &hikage_runtime::wgpu::Queue) -> Result<(), hikage_runtime::RuntimeError> {
+    /// use hikage_runtime::{CpuBundle, GpuBundle};
+    ///
+    /// let cpu = CpuBundle::read_ids("assets/bundle".as_ref(), &["head.strips"])?;
+    /// let mut gpu = GpuBundle::default();
+    /// gpu.insert(device, queue, cpu.asset("head.strips").expect("read above"))?;
+    /// # Ok(()) }
+    /// ```
+    pub fn insert(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
@@ -118,7 +130,7 @@ impl GpuBundle {
     pub fn upload(device: &wgpu::Device, queue: &wgpu::Queue, cpu: &CpuBundle) -> Result<GpuBundle, RuntimeError> {
         let mut out = GpuBundle::default();
         for a in &cpu.assets {
-            out.upload_one(device, queue, a)?;
+            out.insert(device, queue, a)?;
         }
         Ok(out)
     }

@@ -804,9 +804,11 @@ fn pipelines(
         operation: wgpu::BlendOperation::Add,
     };
     let target = |format, blend| Some(wgpu::ColorTargetState { format, blend, write_mask: wgpu::ColorWrites::ALL });
-    let depth =
-        |format, write| wgpu::DepthStencilState { depth_write_enabled: Some(write), ..gpu::depth_state(format) };
-    let scene_depth = |write| options.draw.depth_format.map(|f| depth(f, write));
+    let depth = |format, write, compare| wgpu::DepthStencilState {
+        depth_write_enabled: Some(write),
+        ..gpu::depth_state(format, compare)
+    };
+    let scene_depth = |write| options.draw.depth_format.map(|f| depth(f, write, options.draw.depth_compare));
     let color = options.draw.color.format;
     let pipeline = |layout: &wgpu::BindGroupLayout,
                     (vs, fs): (&str, &str),
@@ -835,7 +837,7 @@ fn pipelines(
             ("hair_vs_light", "hair_fs_depth"),
             true,
             &[target(DEPTH_MAP, None)],
-            Some(depth(wgpu::TextureFormat::Depth32Float, true)),
+            Some(depth(wgpu::TextureFormat::Depth32Float, true, wgpu::CompareFunction::Less)),
         ),
         opacity: pipeline(
             &layouts.opacity,

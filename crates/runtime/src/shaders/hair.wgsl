@@ -58,8 +58,6 @@ struct HairUniform {
 @group(0) @binding(0) var<uniform> hair: HairUniform;
 @group(0) @binding(1) var hair_depth: texture_2d<f32>;
 @group(0) @binding(2) var hair_layers: texture_2d<f32>;
-@group(0) @binding(3) var hair_accum: texture_2d<f32>;
-@group(0) @binding(4) var hair_revealage: texture_2d<f32>;
 
 // One instance: the records of a segment's two points (the same buffer bound twice, one record
 // apart).
@@ -407,6 +405,10 @@ fn hair_fs_oit(in: CameraOut) -> OitOut {
 fn hair_fs_opaque(in: CameraOut) -> @location(0) vec4<f32> {
     return vec4<f32>(hair_shade(in), 1.0);
 }
+
+// The order-independent blend's targets, read by the composite.
+@group(0) @binding(3) var hair_accum: texture_2d<f32>;
+@group(0) @binding(4) var hair_revealage: texture_2d<f32>;
 
 struct CompositeOut {
     @builtin(position) clip: vec4<f32>,
