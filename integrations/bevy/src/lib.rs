@@ -9,6 +9,8 @@
 //! - [`HorizonTerrain`]: a heightfield with baked horizon shadows and ambient occlusion;
 //! - [`ReliefSurface`]: relief mapping with self-shadowing on any mesh with tangents;
 //! - [`CurvedSurface`]: a bump map's horizon shadows corrected for a mesh's curvature;
+//! - [`HairStrands`]: hair strips blended over the scene with deep opacity maps from the sun,
+//!   shadowing [`HairReceiver`] meshes;
 //! - [`FittedShadows`]: a directional light's shadow map fitted to the visible geometry.
 //!
 //! A whole terrain scene:
@@ -40,6 +42,7 @@ mod attach;
 pub mod attributes;
 pub mod curved;
 mod grid;
+pub mod hair;
 pub mod light_fit;
 mod loader;
 pub mod relief;
@@ -58,6 +61,7 @@ use bevy_reflect::TypePath;
 
 pub use curved::{CurvedExtension, CurvedMaterial, CurvedSurface};
 pub use grid::GRID_LABEL;
+pub use hair::{HairDraw, HairReceiver, HairReceiverMaterial, HairShadowMaps, HairStrands};
 pub use hikage_bundle::{Asset as ManifestAsset, Manifest, Settings};
 pub use light_fit::FittedShadows;
 pub use loader::{BundleLoadError, BundleLoader};
@@ -78,6 +82,7 @@ impl Plugin for HikagePlugin {
             MaterialPlugin::<CurvedMaterial>::default(),
         ));
         shaders::register(app);
+        hair::build(app);
         app.add_systems(
             Update,
             (attach::attach::<HorizonTerrain>, attach::attach::<ReliefSurface>, attach::attach::<CurvedSurface>),
@@ -135,6 +140,8 @@ pub struct HikageBundle {
     pub grids: Vec<Handle<Mesh>>,
     /// The heightfield ids of `grids`.
     pub grid_ids: Vec<String>,
+    /// Each `Strands` asset's records as read, by id (hair draws them with its own passes).
+    pub strands: Vec<std::sync::Arc<hikage_runtime::CpuAsset>>,
 }
 
 impl HikageBundle {
@@ -177,6 +184,11 @@ impl HikageBundle {
             }
             _ => Err(format!("asset `{id}` has no horizon settings or texture")),
         }
+    }
+
+    /// The records of `Strands` asset `id`, as hikage-runtime's hair renderer reads them.
+    pub fn strands(&self, id: &str) -> Option<&std::sync::Arc<hikage_runtime::CpuAsset>> {
+        self.strands.iter().find(|s| s.asset.id == id)
     }
 
     /// The manifest entry of asset `id`: kind, settings, payload description.

@@ -2,6 +2,7 @@
 //! sub-asset, each checked (size, BLAKE3, contents) as the core's readers check it.
 
 use std::path::Path;
+use std::sync::Arc;
 
 use bevy_asset::io::Reader;
 use bevy_asset::{AssetLoader, LoadContext, RenderAssetUsages};
@@ -81,6 +82,7 @@ impl AssetLoader for BundleLoader {
             mesh_ids: Vec::new(),
             grids: Vec::new(),
             grid_ids: Vec::new(),
+            strands: Vec::new(),
         };
         for asset in &manifest.assets {
             let bad = |message: String| BundleLoadError::Asset { path: path.clone(), asset: asset.id.clone(), message };
@@ -110,7 +112,12 @@ impl AssetLoader for BundleLoader {
                     bundle.image_ids.push(asset.id.clone());
                 }
                 Payload::Mesh(desc) => {
-                    let mesh = mesh(asset.kind, &MeshData { desc: desc.clone(), bytes }).map_err(&bad)?;
+                    let data = MeshData { desc: desc.clone(), bytes };
+                    let mesh = mesh(asset.kind, &data).map_err(&bad)?;
+                    if asset.kind == AssetKind::Strands {
+                        let payload = hikage_runtime::PayloadData::Mesh(data);
+                        bundle.strands.push(Arc::new(hikage_runtime::CpuAsset { asset: asset.clone(), payload }));
+                    }
                     bundle.meshes.push(context.add_labeled_asset(asset.id.clone(), mesh));
                     bundle.mesh_ids.push(asset.id.clone());
                 }

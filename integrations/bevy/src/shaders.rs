@@ -13,6 +13,42 @@ pub(crate) const CURVED: &str = "embedded://hikage_bevy/shaders/curved.wesl";
 /// The relief material's fragment shader.
 pub(crate) const RELIEF: &str = "embedded://hikage_bevy/shaders/relief.wesl";
 
+/// The hair receivers' fragment shader.
+pub(crate) const HAIR_RECEIVER: &str = "embedded://hikage_bevy/shaders/hair_receiver.wesl";
+
+/// The hair's bindings in hikage-runtime's WGSL, and where the receivers' material extension
+/// binds them (the uniform as a read-only storage buffer: Bevy's `ShaderBuffer` holds its bytes).
+const HAIR_BINDINGS: [(&str, &str); 3] = [
+    (
+        "@group(0) @binding(0) var<uniform> hair:",
+        "@group(constants::MATERIAL_BIND_GROUP) @binding(110) var<storage, read> hair:",
+    ),
+    ("@group(0) @binding(1) var hair_depth", "@group(constants::MATERIAL_BIND_GROUP) @binding(111) var hair_depth"),
+    ("@group(0) @binding(2) var hair_layers", "@group(constants::MATERIAL_BIND_GROUP) @binding(112) var hair_layers"),
+];
+
+/// Where the receivers' half of the hair WGSL ends: the passes' entry points and the blend's
+/// targets follow.
+const HAIR_PASSES: &str = "\nstruct LightOut {";
+
+/// hikage-runtime's hair WGSL up to its passes (the uniform, the maps, `hair_visibility` and the
+/// shading functions), its bindings moved into Bevy's material group.
+fn hair_library() -> String {
+    let source = hikage_runtime::hair::HAIR_WGSL;
+    assert_eq!(source.matches(HAIR_PASSES).count(), 1, "hikage-runtime's hair WGSL no longer has its passes last");
+    moved(&source[..source.find(HAIR_PASSES).expect("counted above")], &HAIR_BINDINGS)
+}
+
+/// `source` with each binding declaration `from` replaced by `to` (each must occur once).
+fn moved(source: &str, bindings: &[(&str, &str)]) -> String {
+    let mut source = source.to_string();
+    for (from, to) in bindings {
+        assert_eq!(source.matches(from).count(), 1, "hikage-runtime's WGSL no longer declares `{from}` once");
+        source = source.replace(from, to);
+    }
+    source
+}
+
 /// The relief tracer's bindings in hikage-runtime's WGSL, and where a Bevy material extension
 /// binds them (the base material holds 0–99; the extension's own uniform is 100).
 const RELIEF_BINDINGS: [(&str, &str); 3] = [
@@ -32,27 +68,27 @@ const RELIEF_BINDINGS: [(&str, &str); 3] = [
 
 /// hikage-runtime's relief WGSL with its bindings moved into Bevy's material group.
 fn relief_library() -> String {
-    let mut source = hikage_runtime::relief::RELIEF_WGSL.to_string();
-    for (from, to) in RELIEF_BINDINGS {
-        assert_eq!(source.matches(from).count(), 1, "hikage-runtime's relief WGSL no longer declares `{from}` once");
-        source = source.replace(from, to);
-    }
-    source
+    moved(hikage_runtime::relief::RELIEF_WGSL, &RELIEF_BINDINGS)
 }
 
 /// Keeps the runtime's shader libraries alive for as long as the app runs.
 #[derive(Resource)]
 struct Libraries(#[expect(dead_code, reason = "held only to keep the shaders loaded")] Vec<Handle<Shader>>);
 
-/// Registers `hikage_bevy::horizon` (hikage-runtime's horizon functions) and embeds the
+/// Registers `hikage_bevy::horizon`, `::relief` and `::hair` (hikage-runtime's functions) and embeds the
 /// materials' own shaders.
 pub(crate) fn register(app: &mut App) {
     bevy_shader::load_shader_library!(app, "shaders/output.wesl");
     bevy_shader::load_shader_library!(app, "shaders/terrain.wesl");
     bevy_shader::load_shader_library!(app, "shaders/relief.wesl");
     bevy_shader::load_shader_library!(app, "shaders/curved.wesl");
+    bevy_shader::load_shader_library!(app, "shaders/hair_receiver.wesl");
     let mut shaders = app.world_mut().resource_mut::<Assets<Shader>>();
-    let libraries = [("horizon", hikage_runtime::horizon::HORIZON_WGSL.to_string()), ("relief", relief_library())]
-        .map(|(name, source)| shaders.add(Shader::from_wesl(source, format!("embedded://hikage_bevy/{name}.wesl"))));
+    let libraries = [
+        ("horizon", hikage_runtime::horizon::HORIZON_WGSL.to_string()),
+        ("relief", relief_library()),
+        ("hair", hair_library()),
+    ]
+    .map(|(name, source)| shaders.add(Shader::from_wesl(source, format!("embedded://hikage_bevy/{name}.wesl"))));
     app.insert_resource(Libraries(libraries.to_vec()));
 }

@@ -101,16 +101,25 @@ pub fn run(name: &str, build: impl FnOnce(&mut App)) {
 /// hikage components whose bundle has not given them a material (or an error) yet.
 fn pending(world: &mut World) -> usize {
     use hikage_bevy::*;
-    world
-        .query_filtered::<(), (
-            Or<(With<HorizonTerrain>, With<ReliefSurface>, With<CurvedSurface>)>,
-            Without<MeshMaterial3d<TerrainMaterial>>,
-            Without<MeshMaterial3d<ReliefMaterial>>,
-            Without<MeshMaterial3d<CurvedMaterial>>,
-            Without<HikageError>,
-        )>()
+    let receivers = world
+        .query_filtered::<(), (With<HairReceiver>, Without<MeshMaterial3d<HairReceiverMaterial>>, Without<HikageError>)>()
         .iter(world)
-        .count()
+        .count();
+    let server = world.resource::<AssetServer>().clone();
+    let hairs =
+        world.query::<&HairStrands>().iter(world).filter(|h| !server.is_loaded_with_dependencies(&h.bundle)).count();
+    receivers
+        + hairs
+        + world
+            .query_filtered::<(), (
+                Or<(With<HorizonTerrain>, With<ReliefSurface>, With<CurvedSurface>)>,
+                Without<MeshMaterial3d<TerrainMaterial>>,
+                Without<MeshMaterial3d<ReliefMaterial>>,
+                Without<MeshMaterial3d<CurvedMaterial>>,
+                Without<HikageError>,
+            )>()
+            .iter(world)
+            .count()
 }
 
 /// A Bevy app with no window, its update loop driven by the caller.
@@ -183,6 +192,27 @@ impl Headless {
             if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
         };
         self.capture_bytes(target).into_iter().map(|p| [linear(p[0]), linear(p[1]), linear(p[2])]).collect()
+    }
+
+    /// Renders frames until image `image` (with `COPY_SRC` usage) is read back: its bytes as
+    /// stored, rows unpadded.
+    pub fn read_image(&mut self, image: &Handle<Image>) -> Vec<u8> {
+        use bevy::render::gpu_readback::{Readback, ReadbackComplete};
+        let read: Arc<Mutex<Option<Vec<u8>>>> = Arc::default();
+        let slot = read.clone();
+        // A standing readback (`ReadbackOnce` is dropped at the start of the next frame, before
+        // this caller's first frame extracts it), despawned once it has answered.
+        let reader = self
+            .world()
+            .spawn(Readback::texture(image.clone()))
+            .observe(move |done: On<ReadbackComplete>| {
+                *slot.lock().unwrap() = Some(done.data.clone());
+            })
+            .id();
+        let done = self.update_until(20, |_| read.lock().unwrap().is_some());
+        assert!(done, "no readback after 20 frames");
+        self.world().despawn(reader);
+        read.lock().unwrap().take().unwrap()
     }
 
     /// Renders a frame and reads `target` back as it is stored: RGBA bytes per pixel.

@@ -1,0 +1,208 @@
+//! Hair strips with deep opacity maps: [`HairStrands`] on an entity draws a bundle's `Strands`
+//! asset through hikage-runtime's `HairRenderer` inside Bevy's camera schedule. Each frame, for
+//! each 3D camera, the opacity maps are rendered from the scene's directional light before the
+//! main pass (so [`HairReceiver`] meshes are shadowed by them in the same frame), and after
+//! Bevy's transparent pass the strips, expanded to face the camera, are shaded with Kajiya-Kay
+//! and blended over the scene order-independently (or drawn opaque).
+//!
+//! The hair is drawn in the bundle's coordinates (the strands' world space as baked): its
+//! entity's `Transform` does not move it. The opacity maps and their uniform are ordinary
+//! Bevy assets ([`HairShadowMaps`]), so a game's own materials can read them too.
+
+mod receiver;
+mod render;
+
+use bevy_app::{App, Update};
+use bevy_asset::{Assets, Handle, RenderAssetUsages};
+use bevy_ecs::prelude::*;
+use bevy_image::Image;
+use bevy_render::render_resource::{Extent3d, TextureDimension, TextureFormat, TextureUsages};
+use bevy_render::storage::ShaderBuffer;
+use hikage_runtime::glam;
+use hikage_runtime::hair::{HairFrame, HairLight, HairUniform};
+pub use hikage_runtime::hair::{HairLod, HairSet, HairStyle, Lod, Lookup};
+
+pub use receiver::{HairReceiver, HairReceiverExtension, HairReceiverMaterial};
+
+use crate::HikageBundle;
+
+/// How a camera sees the hair.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum HairDraw {
+    /// Each strip at its own opacity, blended order-independently over the scene (weighted
+    /// blended transparency: no sorting), sub-pixel strips widened with their opacity lowered
+    /// so they blend instead of speckling.
+    #[default]
+    Blended,
+    /// Opaque strips at their own width, written to the depth buffer.
+    Opaque,
+    /// Not drawn: the hair only shadows its receivers (a first-person head, say).
+    ShadowsOnly,
+}
+
+/// Draws a bundle's hair (a `Strands` asset, the strips `hikage bake` writes from a `.hair`
+/// file) and renders its deep opacity maps each frame, lit by a directional light.
+///
+/// Cameras drawing hair need `Msaa::Off` (the blend's targets are single-sampled); a camera
+/// with MSAA on skips the hair and says so once in the log. The light is `light`, or else the
+/// first directional light with shadow maps (else the first one); its colour × illuminance / π
+/// lights the strips as Bevy lights a matte surface, and the scene's `GlobalAmbientLight` is
+/// their ambient light, both scaled by the camera's exposure.
+///
+/// ```no_run
+/// use bevy::prelude::*;
+/// use hikage_bevy::hair::{HairReceiver, HairStrands};
+///
+/// fn setup(mut commands: Commands, assets: Res<AssetServer>, mut meshes: ResMut<Assets<Mesh>>) {
+///     let bundle = assets.load("bundle/bundle.ron");
+///     let hair = commands.spawn(HairStrands::new(bundle, "head.strips")).id();
+///     // The head under the hair, shadowed by it.
+///     commands.spawn((Mesh3d(meshes.add(Sphere::new(8.5))), HairReceiver::new(hair)));
+/// }
+/// ```
+#[derive(Component, Clone, Debug)]
+pub struct HairStrands {
+    /// The bundle holding the strips.
+    pub bundle: Handle<HikageBundle>,
+    /// The `Strands` asset's id.
+    pub strips: String,
+    /// Blended, opaque or shadows only.
+    pub draw: HairDraw,
+    /// The directional light entity lighting the hair, or `None` for the scene's first.
+    pub light: Option<Entity>,
+    /// Opacity-map texels per side.
+    pub resolution: u32,
+    /// The set drawn into the opacity maps: the wide faint opacity set (anti-aliased shadows)
+    /// or the shading set itself (plain deep opacity maps).
+    pub set: HairSet,
+    /// How receivers and the hair read the opacity maps.
+    pub lookup: Lookup,
+    /// Kajiya-Kay specular strength.
+    pub specular: f32,
+    /// Kajiya-Kay specular exponent.
+    pub specular_power: f32,
+    /// The narrowest blended strip in pixels (0: drawn at its own width).
+    pub min_pixel_width: f32,
+    /// Levels of detail of the camera and light passes.
+    pub lod: HairLod,
+    /// Gradient, taper and per-strand variation.
+    pub style: HairStyle,
+}
+
+impl HairStrands {
+    /// The hair of strips asset `strips` in `bundle`: blended, 256² opacity maps of the
+    /// opacity set, and hikage-runtime's default look (`HairFrame::new`).
+    pub fn new(bundle: Handle<HikageBundle>, strips: impl Into<String>) -> HairStrands {
+        let defaults = HairFrame::new(glam::Mat4::IDENTITY, glam::Vec3::ZERO, unit_light());
+        HairStrands {
+            bundle,
+            strips: strips.into(),
+            draw: HairDraw::default(),
+            light: None,
+            resolution: 256,
+            set: defaults.set,
+            lookup: defaults.lookup,
+            specular: defaults.specular,
+            specular_power: defaults.specular_power,
+            min_pixel_width: defaults.min_pixel_width,
+            lod: defaults.lod,
+            style: defaults.style,
+        }
+    }
+
+    /// The same, drawn as `draw` says.
+    pub fn with_draw(mut self, draw: HairDraw) -> HairStrands {
+        self.draw = draw;
+        self
+    }
+
+    /// The same, lit by directional light `light`.
+    pub fn with_light(mut self, light: Entity) -> HairStrands {
+        self.light = Some(light);
+        self
+    }
+}
+
+/// A light over a unit box, only for reading `HairFrame`'s defaults.
+fn unit_light() -> HairLight {
+    HairLight::for_bounds(glam::Vec3::ZERO, glam::Vec3::ONE, glam::Vec3::Y)
+}
+
+/// The opacity maps of a [`HairStrands`] entity, set on it by the plugin: what its receivers
+/// bind. Rewritten on the GPU every frame a camera draws; their contents are hikage-runtime's
+/// `HairRenderer::opacity_maps` and `HairUniform`.
+#[derive(Component, Clone, Debug, PartialEq)]
+pub struct HairShadowMaps {
+    /// The hair's `HairUniform` (the light's projection, the box, the layer rule), as bytes.
+    pub uniform: Handle<ShaderBuffer>,
+    /// The nearest hair depth per texel (`R32Float`, light NDC; 1 where there is none).
+    pub depth: Handle<Image>,
+    /// The four cumulative opacity layers (`Rgba16Float`).
+    pub layers: Handle<Image>,
+    /// Texels per side.
+    pub resolution: u32,
+}
+
+/// Registers the hair's systems: the maps' assets in the main world, the renderer in the
+/// render world, and the receivers' material.
+pub(crate) fn build(app: &mut App) {
+    app.add_plugins(bevy_pbr::MaterialPlugin::<HairReceiverMaterial>::default());
+    app.add_systems(Update, (give_maps, check_strips, receiver::attach.after(give_maps)));
+    render::build(app);
+}
+
+/// Marks each [`HairStrands`] whose loaded bundle has no such `Strands` asset with a
+/// [`HikageError`](crate::HikageError) (logged once), and clears it once the asset is there.
+fn check_strips(
+    mut commands: Commands,
+    hairs: Query<(Entity, &HairStrands, Has<crate::HikageError>)>,
+    bundles: Res<Assets<HikageBundle>>,
+) {
+    for (entity, hair, failed) in &hairs {
+        let Some(bundle) = bundles.get(&hair.bundle) else { continue };
+        match (bundle.strands(&hair.strips).is_some(), failed) {
+            (false, false) => {
+                let message = match bundle.asset(&hair.strips) {
+                    Some(a) => format!("asset `{}` is a {:?}, expected Strands", hair.strips, a.kind),
+                    None => format!("no asset `{}` in the bundle", hair.strips),
+                };
+                bevy_log::error!("hikage: {message}");
+                commands.entity(entity).insert(crate::HikageError(message));
+            }
+            (true, true) => {
+                commands.entity(entity).remove::<crate::HikageError>();
+            }
+            _ => {}
+        }
+    }
+}
+
+/// Gives each [`HairStrands`] its [`HairShadowMaps`] (new ones when its resolution changes).
+fn give_maps(
+    mut commands: Commands,
+    hairs: Query<(Entity, &HairStrands, Option<&HairShadowMaps>), Changed<HairStrands>>,
+    mut images: ResMut<Assets<Image>>,
+    mut buffers: ResMut<Assets<ShaderBuffer>>,
+) {
+    for (entity, hair, maps) in &hairs {
+        if maps.is_some_and(|m| m.resolution == hair.resolution) {
+            continue;
+        }
+        let r = hair.resolution.max(1);
+        let mut map = |format: TextureFormat| {
+            let mut image = Image::new_uninit(
+                Extent3d { width: r, height: r, depth_or_array_layers: 1 },
+                TextureDimension::D2,
+                format,
+                RenderAssetUsages::RENDER_WORLD,
+            );
+            image.texture_descriptor.usage =
+                TextureUsages::TEXTURE_BINDING | TextureUsages::COPY_DST | TextureUsages::COPY_SRC;
+            images.add(image)
+        };
+        let (depth, layers) = (map(TextureFormat::R32Float), map(TextureFormat::Rgba16Float));
+        let size = std::mem::size_of::<HairUniform>() as u64;
+        let uniform = buffers.add(ShaderBuffer::with_size(size, RenderAssetUsages::RENDER_WORLD));
+        commands.entity(entity).insert(HairShadowMaps { uniform, depth, layers, resolution: r });
+    }
+}

@@ -1,0 +1,266 @@
+//! Hair rendered by Bevy on a GPU (lavapipe in CI) against hikage-runtime's CPU references:
+//! the deep opacity maps the plugin renders before the main pass, the shadow they cast on a
+//! receiver mesh, and the strips seen by the camera, blended over the scene.
+
+#[path = "../examples/common/mod.rs"]
+mod common;
+
+use bevy::camera::Exposure;
+use bevy::prelude::*;
+use hikage_bake::strands::Strands;
+use hikage_bake::strands::strips::{StripSets, build};
+use hikage_bevy::hair::{HairDraw, HairReceiver, HairReceiverMaterial, HairShadowMaps, HairStrands, Lookup};
+use hikage_bevy::{HikageBundle, HikageError};
+use hikage_bundle::{BundleWriter, Settings, WriteMode};
+use hikage_runtime::glam;
+use hikage_runtime::hair::reference::{Facing, StripArrays, accumulate_cpu, expand, hair_visibility};
+use hikage_runtime::hair::{HairFrame, HairOptions, HairRenderer};
+use hikage_runtime::{CpuBundle, GpuBundle, wgpu};
+use hikage_scenes::hair_scene::{Composite, camera_reference};
+
+use common::{MaskScene, gpu_or_skip};
+
+const SIZE: u32 = 256;
+const RESOLUTION: u32 = 256;
+const GROUND: f32 = -0.6;
+
+/// Forty strands hanging from a ring and curling outward, crossing each other seen from the
+/// light; a bundle of their strips in a fresh directory, and their records for the references.
+fn hair_bundle() -> (std::path::PathBuf, StripArrays) {
+    let (mut points, mut segments, mut color) = (Vec::new(), Vec::new(), Vec::new());
+    for k in 0..40 {
+        let a = k as f32 * std::f32::consts::TAU / 40.0;
+        for i in 0..9 {
+            let t = i as f32 / 8.0;
+            let r = 0.35 + 0.55 * t;
+            let twist = a + 0.9 * t;
+            points.push([r * twist.cos(), 0.8 - 0.9 * t * t + 0.05 * (k % 3) as f32, r * twist.sin()]);
+            color.push([0.55 + 0.3 * t, 0.35 + 0.01 * k as f32, 0.2]);
+        }
+        segments.push(8u16);
+    }
+    let s = Strands {
+        segments,
+        points,
+        thickness: None,
+        transparency: None,
+        color: Some(color),
+        default_thickness: 0.03,
+        default_transparency: 0.5,
+        default_color: [0.5; 3],
+    };
+    let sets = StripSets { shading: (0.03, 0.5), opacity: (0.12, 0.125), taper: 0.3 };
+    let strips = build(&s, &sets);
+    let settings = strips.settings(&s, &sets, None);
+    let dir = option_env!("CARGO_TARGET_TMPDIR").map_or_else(std::env::temp_dir, std::path::PathBuf::from).join("hair");
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut writer = BundleWriter::open(&dir.join("bundle"), WriteMode::Replace).unwrap();
+    writer.put_mesh("head.strips", Settings::Strands(settings.clone()), "test", &strips.mesh).unwrap();
+    writer.commit().unwrap();
+    (dir, StripArrays::from_mesh(&strips.mesh, &settings).unwrap())
+}
+
+fn to_glam(m: Mat4) -> glam::Mat4 {
+    glam::Mat4::from_cols_array(&m.to_cols_array())
+}
+
+/// The camera's world → clip matrix and position, as Bevy has them this frame.
+fn camera_of(world: &mut World) -> (glam::Mat4, glam::Vec3) {
+    let (camera, transform) = world.query::<(&Camera, &GlobalTransform)>().single(world).unwrap();
+    let clip = camera.clip_from_view() * transform.to_matrix().inverse();
+    (to_glam(clip), glam::Vec3::from_array(transform.translation().to_array()))
+}
+
+#[test]
+fn hair_maps_shadows_and_view_match_the_cpu_references() {
+    if !gpu_or_skip("hair_maps_shadows_and_view_match_the_cpu_references") {
+        return;
+    }
+    let (dir, arrays) = hair_bundle();
+    let toward_sun = Vec3::new(0.3, 1.0, 0.4).normalize();
+    let top = Transform::from_xyz(0.0, 5.0, 0.0).looking_at(Vec3::ZERO, Vec3::NEG_Z);
+    let MaskScene { mut app, target, .. } =
+        MaskScene::new(&dir, SIZE, toward_sun, top, MaskScene::orthographic(3.0, 3.0, 20.0));
+
+    // The same hair through hikage-runtime's renderer on its own device: the frame's uniform
+    // (light, box, widths) for the CPU references.
+    let g = hikage_scenes::headless::Headless::new().unwrap();
+    let cpu = CpuBundle::read(&dir.join("bundle")).unwrap();
+    let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
+    let options =
+        HairOptions { resolution: RESOLUTION, ..HairOptions::new(wgpu::TextureFormat::Rgba8UnormSrgb, (SIZE, SIZE)) };
+    let runtime = HairRenderer::new(&g.device, &g.queue, &gb, "head.strips", &options).unwrap();
+    let light = runtime.light(glam::Vec3::from_array(toward_sun.to_array()));
+
+    // 1. The opacity maps and the shadow on a receiving ground plane (the hair itself hidden).
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    let hair = app.world().spawn(HairStrands::new(bundle.clone(), "head.strips").with_draw(HairDraw::ShadowsOnly)).id();
+    let plane = app.world().resource_mut::<Assets<Mesh>>().add(Plane3d::default().mesh().size(3.0, 3.0));
+    let ground =
+        app.world().spawn((Mesh3d(plane), Transform::from_xyz(0.0, GROUND, 0.0), HairReceiver::new(hair))).id();
+    // A hair naming no strands asset, and a receiver naming an entity that is not hair.
+    let wrong = app.world().spawn(HairStrands::new(bundle.clone(), "head.nothing")).id();
+    let stray = app.world().spawn(HairReceiver::new(ground)).id();
+    let built = app.update_until(600, |world| world.get::<MeshMaterial3d<HairReceiverMaterial>>(ground).is_some());
+    assert!(built, "the receiver was not built");
+    app.update_until(100, |world| world.get::<HikageError>(wrong).is_some());
+    let error = |app: &mut common::Headless, e: Entity| app.world().get::<HikageError>(e).map(|e| e.0.clone());
+    assert_eq!(error(&mut app, wrong).as_deref(), Some("no asset `head.nothing` in the bundle"));
+    assert!(error(&mut app, stray).is_some_and(|m| m.contains("has no HairStrands")), "{:?}", error(&mut app, stray));
+    app.world().despawn(wrong);
+    app.world().despawn(stray);
+    let shadowed = app.capture(&target);
+    let maps = app.world().get::<HairShadowMaps>(hair).unwrap().clone();
+    let depth: Vec<f32> =
+        app.read_image(&maps.depth).chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    let layers: Vec<[f32; 4]> = app
+        .read_image(&maps.layers)
+        .chunks_exact(8)
+        .map(|c| std::array::from_fn(|k| half::f16::from_le_bytes([c[2 * k], c[2 * k + 1]]).to_f32()))
+        .collect();
+
+    let frame = HairFrame::new(glam::Mat4::IDENTITY, glam::Vec3::ZERO, light);
+    let uniform = runtime.uniform(&frame);
+    let light_points = arrays.points_of_level(runtime.chosen_levels(&frame).1);
+    let cpu_maps = accumulate_cpu(&expand(&arrays, &uniform, Facing::Light, light_points), &light, RESOLUTION);
+    let n = (RESOLUTION * RESOLUTION) as usize;
+    let (mut covered, mut depth_ok, mut layers_ok) = (0, 0, 0);
+    for i in 0..n {
+        covered += (cpu_maps.0[i] < 1.0) as usize;
+        depth_ok += ((depth[i] - cpu_maps.0[i]).abs() < 1e-4) as usize;
+        layers_ok += (0..4).all(|k| (layers[i][k] - cpu_maps.1[i][k]).abs() < 5e-3) as usize;
+    }
+    eprintln!(
+        "bevy hair maps: {covered} of {n} texels covered; depth equal on {:.2}%, layers on {:.2}%",
+        100.0 * depth_ok as f64 / n as f64,
+        100.0 * layers_ok as f64 / n as f64
+    );
+    assert!(covered > n / 10, "the hair should cover part of the maps");
+    assert!(depth_ok as f64 >= 0.99 * n as f64 && layers_ok as f64 >= 0.99 * n as f64);
+
+    // The ground without the hair's shadow: the ratio of the two renders is the visibility.
+    let open_material = app.world().resource_mut::<Assets<StandardMaterial>>().add(StandardMaterial::default());
+    app.world()
+        .entity_mut(ground)
+        .remove::<(HairReceiver, MeshMaterial3d<HairReceiverMaterial>)>()
+        .insert(MeshMaterial3d(open_material));
+    let open = app.capture(&target);
+    let (mut checked, mut agree, mut shaded, mut error) = (0usize, 0usize, 0usize, 0.0f64);
+    for row in 0..SIZE {
+        for col in 0..SIZE {
+            let k = (row * SIZE + col) as usize;
+            if open[k][1] < 0.05 {
+                continue;
+            }
+            let ray = app.pixel_ray(col, row);
+            let p = ray.origin + *ray.direction * ((GROUND - ray.origin.y) / ray.direction.y);
+            let reference = hair_visibility(
+                &light,
+                (&cpu_maps.0, &cpu_maps.1),
+                RESOLUTION,
+                Lookup::Nearest,
+                glam::Vec3::from_array(p.to_array()),
+            );
+            let bevy = (shadowed[k][1] / open[k][1]).min(1.0);
+            checked += 1;
+            shaded += (reference < 0.9) as usize;
+            agree += ((reference < 0.5) == (bevy < 0.5)) as usize;
+            error += ((reference - bevy) as f64).abs();
+        }
+    }
+    let share = agree as f64 / checked as f64;
+    eprintln!(
+        "bevy hair shadow: {checked} ground pixels, {shaded} shaded; the shadow mask agrees on {:.2}%, mean |Δ visibility| {:.4}",
+        100.0 * share,
+        error / checked as f64
+    );
+    assert!(checked as u32 > SIZE * SIZE * 9 / 10, "the ground fills the view");
+    assert!(shaded > checked / 10, "the hair shades the ground");
+    assert!(share >= 0.98 && error / checked as f64 <= 0.02);
+
+    // 2. The hair seen in perspective, blended over black, against the CPU composite.
+    app.world().despawn(ground);
+    app.world().insert_resource(ClearColor(Color::BLACK));
+    app.world().entity_mut(hair).get_mut::<HairStrands>().unwrap().draw = HairDraw::Blended;
+    let camera = app.world().query_filtered::<Entity, With<Camera>>().single(app.world()).unwrap();
+    let eye = Vec3::new(0.4, 1.6, 2.8);
+    app.world().entity_mut(camera).insert((
+        Transform::from_translation(eye).looking_at(Vec3::new(0.0, 0.2, 0.0), Vec3::Y),
+        Projection::Perspective(PerspectiveProjection { fov: 45f32.to_radians(), near: 0.1, ..default() }),
+    ));
+    app.update();
+    let image = app.capture_bytes(&target);
+    let (clip, eye) = camera_of(app.world());
+    let exposure = Exposure::default().exposure();
+    let frame = HairFrame {
+        light_color: glam::Vec3::splat(2000.0 * exposure / std::f32::consts::PI),
+        ambient: glam::Vec3::ZERO,
+        ..HairFrame::new(clip, eye, light)
+    };
+    let uniform = runtime.uniform(&frame);
+    let points = arrays.points_of_level(runtime.chosen_levels(&frame).0);
+    let reference =
+        camera_reference(&arrays, &uniform, &light, &cpu_maps, ((SIZE, SIZE), points), Composite::OrderIndependent);
+    let (mut covered, mut close, mut lit, mut stray) = (0, 0, 0.0f32, 0);
+    for (i, r) in reference.iter().enumerate() {
+        let got = image[i].map(hikage_scenes::hair_scene::srgb_to_linear);
+        if r[3] <= 0.0 {
+            stray += (got[..3].iter().any(|&c| c > 0.02)) as u32;
+            continue;
+        }
+        covered += 1;
+        close += (0..3).all(|k| (got[k] - r[k].min(1.0)).abs() <= 0.02 + 0.02 * r[k]) as u32;
+        lit += r[0] + r[1] + r[2];
+    }
+    eprintln!(
+        "bevy hair view: {covered} pixels with hair, {:.2}% within 2% of the CPU composite; {stray} stray pixels",
+        100.0 * close as f64 / covered as f64
+    );
+    assert!(covered > 2000, "the hair fills part of the view");
+    assert!(lit / covered as f32 > 0.05, "lit hair");
+    assert!(close as f64 >= 0.97 * covered as f64, "{close} of {covered}");
+    assert!(stray < 50, "{stray} pixels drawn where the reference has no hair");
+
+    // 3. Against the scene's depth: a wall behind the hair shows through it as the blend says
+    // (the reference composite over the wall's own pixel), and a post in front of the hair
+    // hides it.
+    let unlit = |c: Color| StandardMaterial { base_color: c, unlit: true, ..default() };
+    let (wall, post) = {
+        let world = app.world();
+        let mut meshes = world.resource_mut::<Assets<Mesh>>();
+        (meshes.add(Cuboid::new(4.0, 4.0, 0.1)), meshes.add(Cuboid::new(0.25, 4.0, 0.25)))
+    };
+    let (grey, red) = {
+        let mut materials = app.world().resource_mut::<Assets<StandardMaterial>>();
+        (materials.add(unlit(Color::srgb(0.4, 0.4, 0.4))), materials.add(unlit(Color::srgb(0.8, 0.1, 0.1))))
+    };
+    let toward_eye = (Vec3::from_array(eye.to_array()) - Vec3::new(0.0, 0.2, 0.0)).normalize();
+    let facing = Transform::from_translation(-1.6 * toward_eye).looking_to(-toward_eye, Vec3::Y);
+    app.world().spawn((Mesh3d(wall), MeshMaterial3d(grey), facing));
+    app.world().spawn((Mesh3d(post), MeshMaterial3d(red), Transform::from_translation(1.4 * toward_eye)));
+    let blended = app.capture(&target);
+    app.world().entity_mut(hair).get_mut::<HairStrands>().unwrap().draw = HairDraw::ShadowsOnly;
+    let bare = app.capture(&target);
+    let (mut behind, mut behind_ok, mut hidden, mut hidden_ok) = (0, 0, 0, 0);
+    for (i, r) in reference.iter().enumerate() {
+        if r[3] < 0.05 {
+            continue;
+        }
+        let is_post = bare[i][0] > 0.3 && bare[i][1] < 0.1;
+        let is_wall = (bare[i][0] - bare[i][1]).abs() < 0.01 && bare[i][1] > 0.05;
+        if is_post {
+            hidden += 1;
+            hidden_ok += (0..3).all(|k| (blended[i][k] - bare[i][k]).abs() <= 0.01) as u32;
+        } else if is_wall {
+            behind += 1;
+            let expected = |k: usize| r[k].min(1.0) + (1.0 - r[3]) * bare[i][k];
+            behind_ok += (0..3).all(|k| (blended[i][k] - expected(k)).abs() <= 0.02 + 0.02 * expected(k)) as u32;
+        }
+    }
+    eprintln!(
+        "bevy hair depth: {behind_ok} of {behind} hair pixels over the wall composite as the reference says; \
+         {hidden_ok} of {hidden} behind the post stay hidden"
+    );
+    assert!(behind > 1000 && hidden > 100, "{behind} pixels over the wall, {hidden} behind the post");
+    assert!(behind_ok as f64 >= 0.97 * behind as f64 && hidden_ok as f64 >= 0.99 * hidden as f64);
+}
