@@ -1,13 +1,15 @@
 //! The figures docs/bevy.md reports, in one run, each against a baseline measured in the same
 //! run: the terrain scene's frame time with the hikage material against Bevy's
-//! `StandardMaterial` with cascaded shadows on the same mesh; relief reads per pixel and error
+//! `StandardMaterial` with cascaded shadows on the same mesh; the hair scene's against the same
+//! scene without hair; relief reads per pixel and error
 //! against the exact surface, hikage's tracer against Bevy's `ParallaxMappingMethod::Relief`
 //! algorithm on the same height map; shadow-texel density on visible surfaces, the fitted map
 //! against Bevy's default cascades. Needs the default bundle (`cargo run --release -- bake` in
 //! the repository root) and a GPU (lavapipe will do):
 //!
 //! ```sh
-//! cargo run --release --ignore-rust-version --example measure
+//! cargo run --release --ignore-rust-version --example measure           # every table
+//! cargo run --release --ignore-rust-version --example measure -- hair   # or one: terrain, hair, relief, density
 //! ```
 
 #[path = "common/mod.rs"]
@@ -17,7 +19,9 @@ use std::time::Instant;
 
 use bevy::light::{CascadeShadowConfig, CascadeShadowConfigBuilder, Cascades, NotShadowCaster};
 use bevy::prelude::*;
-use hikage_bevy::{FittedShadows, HikageBundle, HikagePlugin, HorizonTerrain, TerrainMaterial};
+use hikage_bevy::{
+    FittedShadows, HairDraw, HairReceiver, HairStrands, HikageBundle, HikagePlugin, HorizonTerrain, TerrainMaterial,
+};
 use hikage_runtime::CpuBundle;
 use hikage_runtime::relief::Tracer;
 use hikage_runtime::relief::reference::{Reads, ReliefMaps, fine_march};
@@ -37,12 +41,25 @@ fn main() {
         VIEW.0,
         VIEW.1
     );
-    println!();
-    terrain_frame_time(&root);
-    println!();
-    relief_comparison(&root);
-    println!();
-    texel_density();
+    // One part only when named: terrain, hair, relief or density.
+    let only = std::env::args().nth(1);
+    let run = |part: &str| only.as_deref().is_none_or(|o| o == part);
+    if run("terrain") {
+        println!();
+        terrain_frame_time(&root);
+    }
+    if run("hair") {
+        println!();
+        hair_frame_time(&root);
+    }
+    if run("relief") {
+        println!();
+        relief_comparison(&root);
+    }
+    if run("density") {
+        println!();
+        texel_density();
+    }
 }
 
 fn threads() -> usize {
@@ -130,6 +147,73 @@ fn terrain_frame_time(root: &std::path::Path) {
         ("hikage TerrainMaterial, terrain NotShadowCaster", TerrainScene::HikageNoCaster),
     ] {
         let ms = terrain_ms(root, scene);
+        println!("| {name} | {ms:.1} | {:.2}× |", ms / base);
+    }
+}
+
+/// Milliseconds per frame of the hair example's scene (the sample head over a ground plane, the
+/// scalp and ground receiving its shadow) drawn as `draw`, or without hair (`None`: the scalp and
+/// ground plain `StandardMaterial`s): best of `RUNS` runs of `FRAMES` frames.
+fn hair_ms(root: &std::path::Path, draw: Option<HairDraw>) -> f64 {
+    let mut app = Headless::new(root, |app| {
+        app.add_plugins(HikagePlugin);
+    });
+    let target = app.target(VIEW.0, VIEW.1);
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    let world = app.world();
+    let hair = world.spawn(HairStrands::new(bundle.clone(), "head.strips").with_draw(draw.unwrap_or_default())).id();
+    let (scalp, ground) = {
+        let mut meshes = world.resource_mut::<Assets<Mesh>>();
+        (meshes.add(Sphere::new(7.6).mesh().uv(48, 32)), meshes.add(Plane3d::default().mesh().size(160.0, 160.0)))
+    };
+    let plain = world.resource_mut::<Assets<StandardMaterial>>().add(StandardMaterial::default());
+    for (mesh, at) in [(scalp, Vec3::new(0.1, 2.2, -1.7)), (ground, Vec3::new(0.0, -26.0, 0.0))] {
+        let mut e = world.spawn((Mesh3d(mesh), Transform::from_translation(at)));
+        match draw {
+            Some(_) => e.insert(HairReceiver::new(hair)),
+            None => e.insert(MeshMaterial3d(plain.clone())),
+        };
+    }
+    world.spawn((
+        DirectionalLight { illuminance: 9_000.0, shadow_maps_enabled: true, ..default() },
+        Transform::default().looking_to(-Vec3::new(0.45, 1.0, 0.3), Vec3::Y),
+    ));
+    world.spawn((
+        Camera3d::default(),
+        bevy::camera::RenderTarget::from(target),
+        bevy::render::view::Msaa::Off,
+        Transform::from_xyz(52.0, 26.0, 72.0).looking_at(Vec3::new(6.0, -2.0, 0.0), Vec3::Y),
+    ));
+    let server = app.world().resource::<AssetServer>().clone();
+    let loaded = app.update_until(600, |_| server.is_loaded_with_dependencies(&bundle));
+    assert!(loaded, "the bundle did not load");
+    if draw.is_none() {
+        app.world().despawn(hair);
+    }
+    app.update_until(10, |_| false);
+    (0..RUNS)
+        .map(|_| {
+            let start = Instant::now();
+            app.update_until(FRAMES, |_| false);
+            start.elapsed().as_secs_f64() * 1000.0 / FRAMES as f64
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+fn hair_frame_time(root: &std::path::Path) {
+    println!(
+        "Hair scene (the hair example: 10,000 strands × 22 points, 256² opacity maps, scalp and ground receiving), ms/frame, best of {RUNS}×{FRAMES}:"
+    );
+    let base = hair_ms(root, None);
+    println!("| scene | ms/frame | vs no hair |");
+    println!("|---|---|---|");
+    println!("| scalp and ground, no hair (baseline) | {base:.1} | 1.00× |");
+    for (name, draw) in [
+        ("hair shadows only (opacity maps, receivers)", HairDraw::ShadowsOnly),
+        ("hair blended (maps, receivers, strips, composite)", HairDraw::Blended),
+        ("hair opaque", HairDraw::Opaque),
+    ] {
+        let ms = hair_ms(root, Some(draw));
         println!("| {name} | {ms:.1} | {:.2}× |", ms / base);
     }
 }
