@@ -48,7 +48,9 @@ fn default_pipeline_bakes_validates_and_inspects() {
                     // One 32-byte record per point, no indices.
                     assert_eq!(a["vertex_count"], 220_000, "{a}");
                     assert_eq!(a["index_count"], 0, "{a}");
-                    assert_eq!(a["byte_length"], 32 * 220_000, "{a}");
+                    assert_eq!(a["gpu_bytes"], 32 * 220_000, "{a}");
+                    // Stored as a zstd frame (the default compression): smaller on disk.
+                    assert!(a["byte_length"].as_u64().unwrap() < 32 * 220_000, "{a}");
                     let sets = a["sets"].as_array().unwrap();
                     assert_eq!(sets[0]["name"], "shading");
                     assert!(sets[1]["width"].as_f64().unwrap() > sets[0]["width"].as_f64().unwrap());
@@ -64,10 +66,10 @@ fn default_pipeline_bakes_validates_and_inspects() {
     assert_eq!(find("terrain.horizon")["dimension"], "D3");
     assert_eq!(find("terrain.horizon")["channels"], serde_json::json!(["slope", "distance"]));
     assert_eq!(find("reptile.ao")["kind"], "ambient_occlusion");
-    // GPU memory as uploaded: 512 × 512 × 32 texels of two half floats; a KTX2 file adds its
-    // header on disk; the max-mip pyramid is 256² + 128² + … + 1² half floats.
+    // GPU memory as uploaded: 512 × 512 × 32 texels of two half floats; on disk zstd (the
+    // default compression) stores less; the max-mip pyramid is 256² + 128² + … + 1² half floats.
     assert_eq!(find("terrain.horizon")["gpu_bytes"], 512 * 512 * 32 * 4);
-    assert!(find("terrain.horizon")["byte_length"].as_u64().unwrap() > 512 * 512 * 32 * 4);
+    assert!(find("terrain.horizon")["byte_length"].as_u64().unwrap() < 512 * 512 * 32 * 4);
     let pyramid: u64 = (0..9).map(|k| (256u64 >> k).pow(2) * 2).sum();
     assert_eq!(find("relief_fbm.maxmip")["gpu_bytes"], pyramid);
     let sum = |key: &str| assets.iter().map(|a| a[key].as_u64().unwrap()).sum::<u64>();
@@ -374,7 +376,8 @@ fn relief_one_shot_adds_depth_maps_and_refuses_bad_settings() {
     let table: String = manifest.split_whitespace().collect();
     assert!(table.contains("directions:[(22.5,0.0),(22.5,120.0),(22.5,240.0),(67.5,0.0),"), "{manifest}");
     // The paper's 192 KB: 192 one-byte 32² maps, 12 zenith rows (3.75° apart) × 16 azimuths.
-    dir.run(&["relief", "data/relief_bricks.png", "--out", "e", "--preset", "paper-192k"]);
+    // Stored raw (`--zstd 0`) so the file is the maps' memory.
+    dir.run(&["relief", "data/relief_bricks.png", "--out", "e", "--preset", "paper-192k", "--zstd", "0"]);
     dir.run(&["export", "e", "relief_bricks.relief", "--raw", "--out", "e.f32"]);
     assert_eq!(dir.read("e.f32").len(), 192 * 32 * 32 * 4);
     let manifest: String = String::from_utf8(dir.read("e/bundle.ron")).unwrap().split_whitespace().collect();
@@ -508,4 +511,71 @@ fn raw_heightmaps_bake_with_their_size() {
     let args = ["horizon", "map.r16", "--raw-size", "8x5", "--out", "c"];
     let out = dir.run_expecting(&args, 1);
     assert!(stderr(&out).contains("map.r16") && stderr(&out).contains("80 bytes, found 64"), "{}", stderr(&out));
+}
+
+/// A job's `compression` (and a one-shot's `--zstd`): raw, zstd 1 and zstd 19 bundles of the
+/// same strands and relief maps hold the same data once read — texture levels and mesh buffers
+/// byte for byte — in files of half the size (strips gain nothing from level 19 over 1: their
+/// floats leave little for a longer search); the manifest says which meshes are
+/// compressed; a level outside 1–22 is refused by name; and a mesh frame claiming more than a
+/// reader's limit is refused before it is inflated.
+#[test]
+fn compression_levels_keep_the_data_and_shrink_the_files() {
+    let dir = Dir::new("compression");
+    dir.write("head.hair", std::fs::read("data/head.hair").unwrap());
+    dir.write("bricks.png", std::fs::read("data/relief_bricks.png").unwrap());
+    let mut sizes = Vec::new();
+    let mut read = Vec::new();
+    for level in ["0", "1", "19"] {
+        let out = format!("b{level}");
+        dir.run(&["strands", "head.hair", "--out", &out, "--zstd", level]);
+        dir.run(&["relief", "bricks.png", "--out", &out, "--zstd", level]);
+        dir.run(&["validate", &out]);
+        let bundle = hikage_runtime::CpuBundle::read(&dir.path(&out)).unwrap();
+        let manifest = String::from_utf8(dir.read(&format!("{out}/bundle.ron"))).unwrap();
+        assert_eq!(manifest.contains("supercompression: zstd"), level != "0", "{manifest}");
+        sizes.push(dir.bundle_files(&out).values().map(Vec::len).sum::<usize>());
+        read.push(bundle.assets.into_iter().map(|a| (a.asset.id, a.payload)).collect::<Vec<_>>());
+    }
+    for other in &read[1..] {
+        assert_eq!(other.len(), read[0].len());
+        for ((id, raw), (_, inflated)) in read[0].iter().zip(other) {
+            match (raw, inflated) {
+                (hikage_bundle::PayloadData::Texture(a), hikage_bundle::PayloadData::Texture(b)) => {
+                    assert_eq!(a.levels, b.levels, "{id}")
+                }
+                (hikage_bundle::PayloadData::Mesh(a), hikage_bundle::PayloadData::Mesh(b)) => {
+                    assert_eq!((&a.desc, &a.bytes), (&b.desc, &b.bytes), "{id}")
+                }
+                _ => panic!("{id}: the payload changed kind"),
+            }
+        }
+    }
+    assert!(sizes[1] < sizes[0] * 6 / 10 && sizes[2] < sizes[0] * 6 / 10, "bytes raw, zstd 1, zstd 19: {sizes:?}");
+    let out = dir.run_expecting(&["strands", "head.hair", "--out", "x", "--zstd", "23"], 2);
+    assert!(stderr(&out).contains("outside 1–22"), "{}", stderr(&out));
+
+    // A compressed mesh whose frame declares 8 GiB: the manifest made to match the file, the
+    // reader refuses it by its declared size.
+    let payload = dir.bundle_files("b19").into_keys().find(|n| n.starts_with("head.strips.")).unwrap();
+    let bomb = {
+        // Magic; descriptor: an 8-byte content size; a 1 KiB window.
+        let mut frame = vec![0x28, 0xB5, 0x2F, 0xFD, 0xC0, 0x00];
+        frame.extend_from_slice(&(8u64 << 30).to_le_bytes());
+        frame.extend_from_slice(&[0x01, 0x00, 0x00]); // one empty raw last block
+        frame
+    };
+    let manifest = String::from_utf8(dir.read("b19/bundle.ron")).unwrap();
+    let old = std::fs::read(dir.path(&format!("b19/{payload}"))).unwrap();
+    let manifest = manifest
+        .replace(blake3::hash(&old).to_hex().as_str(), blake3::hash(&bomb).to_hex().as_str())
+        .replace(&format!("byte_length: {},", old.len()), &format!("byte_length: {},", bomb.len()));
+    dir.write("b19/bundle.ron", manifest);
+    dir.write(&format!("b19/{payload}"), bomb);
+    let out = dir.run_expecting(&["validate", "b19"], 1);
+    assert!(
+        stdout(&out).contains("head.strips") && stdout(&out).contains("declares 8589934592 bytes"),
+        "{}",
+        stdout(&out)
+    );
 }

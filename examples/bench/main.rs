@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! cargo run --release --example bench              # every table
-//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load
+//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load, size
 //! cargo run --release --example bench -- scale     # tiled bakes: ~40 min, ~50 GiB of disk
 //! cargo run --release --example bench -- build-script   # clean builds of a game crate: ~15 min
 //! ```
@@ -19,6 +19,7 @@ mod horizon;
 mod load;
 mod relief;
 mod scale;
+mod size;
 
 use std::time::Instant;
 
@@ -94,6 +95,9 @@ fn main() {
     }
     if wanted("load") {
         load::run();
+    }
+    if wanted("size") {
+        size::run();
     }
     if args.iter().any(|a| a == "scale") {
         scale::run();

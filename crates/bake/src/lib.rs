@@ -27,6 +27,7 @@
 
 pub mod build;
 pub mod cache;
+pub mod compression;
 pub mod curvature;
 mod error;
 pub mod export;
@@ -42,6 +43,7 @@ pub mod run;
 pub mod shard;
 pub mod strands;
 
+pub use compression::Compression;
 pub use error::BakeError;
 pub use heightfield::{Heightfield, LoadOptions};
 pub use jobs::{Baker, Job};

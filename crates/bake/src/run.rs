@@ -226,12 +226,18 @@ fn run_job(
 ) -> Result<Option<(String, Vec<Asset>)>, BakeError> {
     let job = run.job;
     let id = job.id().to_string();
+    let compression = loaded.pipeline.jobs[run.index].compression();
     options.observer.job_started(run.position.0, run.position.1, &id, job.kind());
     // The input limits are part of the settings: a tightened limit re-checks inputs baked before.
     let hash = crate::hash::job_hash(&crate::hash::HashedJob {
         kind: job.kind(),
         algorithm_version: job.algorithm_version(),
-        settings: format!("{};max_dimension={}", job.canonical_settings(), loaded.pipeline.limits.max_dimension),
+        settings: format!(
+            "{};max_dimension={};compression={}",
+            job.canonical_settings(),
+            loaded.pipeline.limits.max_dimension,
+            compression.canonical()
+        ),
         inputs: job.inputs(&loaded.base_dir),
     })?;
     let outputs = job.outputs();
@@ -256,11 +262,18 @@ fn run_job(
     let progress = |done: u64, all: u64| options.observer.progress(&id, done, all);
     let ctx = loaded.context(run.index, &progress);
     let mut made = Vec::new();
-    for asset in job.bake(&ctx)? {
+    let zstd = |data: &[u8]| compression.compress(data);
+    for mut asset in job.bake(&ctx)? {
         made.push(
-            match &asset.payload {
-                PayloadData::Texture(t) => writer.put_texture(&asset.id, asset.settings, &hash, t),
-                PayloadData::Mesh(m) => writer.put_mesh(&asset.id, asset.settings, &hash, m),
+            match &mut asset.payload {
+                PayloadData::Texture(t) => {
+                    t.desc.supercompression = compression.supercompression();
+                    writer.put_texture_with(&asset.id, asset.settings, &hash, t, &zstd)
+                }
+                PayloadData::Mesh(m) => {
+                    m.desc.supercompression = compression.supercompression();
+                    writer.put_mesh_with(&asset.id, asset.settings, &hash, m, &zstd)
+                }
             }
             .map_err(|e| loaded.baked_error(run.index, &id, e))?,
         );

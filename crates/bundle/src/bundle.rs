@@ -8,9 +8,9 @@ use crate::error::BundleError;
 use crate::files::read_limited;
 use crate::limits::Limits;
 use crate::manifest::{Asset, AssetKind, MANIFEST_FILE, Manifest, Payload, Settings};
-use crate::mesh::MeshData;
+use crate::mesh::{MeshData, MeshDesc};
 use crate::names::{check_asset_id, is_safe_file_name};
-use crate::texture::{TextureData, TextureDesc, TextureDimension};
+use crate::texture::{Supercompression, TextureData, TextureDesc, TextureDimension};
 use crate::version::FormatVersion;
 
 /// The format whose `Strands` meshes are point records; older strips are refused.
@@ -152,16 +152,11 @@ impl Bundle {
     /// Reads a mesh asset; accessors are checked against the payload.
     pub fn read_mesh(&self, id: &str) -> Result<MeshData, BundleError> {
         let asset = self.asset(id)?;
-        let Payload::Mesh(desc) = &asset.payload else {
+        if !matches!(asset.payload, Payload::Mesh(_)) {
             return Err(self.not_a(asset, "mesh"));
-        };
+        }
         let bytes = self.read_payload(asset)?;
-        desc.check(bytes.len() as u64).map_err(|message| BundleError::Payload {
-            path: self.payload_path(asset),
-            asset: asset.id.clone(),
-            message,
-        })?;
-        Ok(MeshData { desc: desc.clone(), bytes })
+        decode_mesh(asset, bytes, &self.payload_path(asset), &self.limits)
     }
 
     fn not_a(&self, asset: &Asset, what: &str) -> BundleError {
@@ -170,6 +165,23 @@ impl Bundle {
             message: format!("asset `{}` is a {}, not a {what}", asset.id, asset.kind.name()),
         }
     }
+}
+
+/// The mesh of a mesh asset from its payload file's `bytes` (read from `path`): inflated when
+/// the manifest says it is zstd-compressed (within `limits`), its accessors checked against the
+/// buffer. The mesh's description is the manifest's with no supercompression (it describes the
+/// inflated buffer).
+pub fn decode_mesh(asset: &Asset, bytes: Vec<u8>, path: &Path, limits: &Limits) -> Result<MeshData, BundleError> {
+    let fail = |message: String| BundleError::Payload { path: path.into(), asset: asset.id.clone(), message };
+    let Payload::Mesh(desc) = &asset.payload else {
+        return Err(fail("not a mesh".into()));
+    };
+    let bytes = match desc.supercompression {
+        Supercompression::None => bytes,
+        Supercompression::Zstd => crate::zstd::inflate(&bytes, limits.max_payload_bytes).map_err(&fail)?,
+    };
+    desc.check(bytes.len() as u64).map_err(&fail)?;
+    Ok(MeshData { desc: MeshDesc { supercompression: Supercompression::None, ..desc.clone() }, bytes })
 }
 
 /// Decodes the KTX2 payload `bytes` of a texture asset (read from `path`); its header must
@@ -246,7 +258,11 @@ pub fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(String, S
             // Strands of an older bundle have the strip layout: readable, not drawable
             // ([`crate::validate()`] says so).
             Payload::Mesh(_) if a.kind == AssetKind::Strands && manifest.format < STRANDS_RECORDS_SINCE => {}
-            Payload::Mesh(m) if a.kind == AssetKind::Strands && *m != crate::strands::strands_desc(m.vertex_count) => {
+            Payload::Mesh(m)
+                if a.kind == AssetKind::Strands
+                    && (MeshDesc { supercompression: Supercompression::None, ..m.clone() })
+                        != crate::strands::strands_desc(m.vertex_count) =>
+            {
                 bad(format!(
                     "strands must be the interleaved 32-byte point records of format {STRANDS_RECORDS_SINCE} with no indices (an older hikage's strips?): bake them again"
                 ))

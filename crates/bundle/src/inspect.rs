@@ -121,7 +121,10 @@ pub fn summarize(manifest: &Manifest) -> Summary {
                         kind: a.kind.name().into(),
                         file: a.file.clone(),
                         byte_length: a.byte_length,
-                        gpu_bytes: a.byte_length,
+                        gpu_bytes: match m.supercompression {
+                            crate::Supercompression::None => a.byte_length,
+                            crate::Supercompression::Zstd => m.buffer_bytes(),
+                        },
                         format: "mesh".into(),
                         dimensions: vec![m.vertex_count as u64, indices],
                         dimension: "mesh".into(),

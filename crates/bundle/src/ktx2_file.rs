@@ -23,6 +23,12 @@ const SUPERCOMPRESSION_ZSTD: u32 = 2;
 
 /// Encodes `texture` as a KTX2 file, writing `writer` as the `KTXwriter` value.
 pub fn encode(texture: &TextureData, writer: &str) -> Result<Vec<u8>, BundleError> {
+    encode_with(texture, writer, &crate::zstd::fastest)
+}
+
+/// [`encode`], zstd-supercompressed levels (when the description asks for them) compressed by
+/// `zstd`.
+pub fn encode_with(texture: &TextureData, writer: &str, zstd: crate::zstd::Encoder) -> Result<Vec<u8>, BundleError> {
     let desc = &texture.desc;
     desc.check(&Limits::default()).map_err(|m| BundleError::InvalidData(format!("KTX2 writer: {m}")))?;
     if texture.levels.len() != desc.levels as usize {
@@ -45,11 +51,7 @@ pub fn encode(texture: &TextureData, writer: &str) -> Result<Vec<u8>, BundleErro
     // Stored (possibly compressed) level data.
     let stored: Vec<Vec<u8>> = match desc.supercompression {
         Supercompression::None => texture.levels.clone(),
-        Supercompression::Zstd => texture
-            .levels
-            .iter()
-            .map(|l| ruzstd::encoding::compress_to_vec(l.as_slice(), ruzstd::encoding::CompressionLevel::Fastest))
-            .collect(),
+        Supercompression::Zstd => texture.levels.iter().map(|l| zstd(l)).collect(),
     };
 
     let dfd = data_format_descriptor(desc.format);

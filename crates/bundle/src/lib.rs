@@ -41,8 +41,9 @@ pub mod texture;
 pub mod validate;
 mod version;
 mod writer;
+pub mod zstd;
 
-pub use bundle::{Bundle, READERS_LOCK_FILE};
+pub use bundle::{Bundle, READERS_LOCK_FILE, decode_mesh};
 pub use error::BundleError;
 pub use limits::Limits;
 pub use manifest::{

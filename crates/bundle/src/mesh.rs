@@ -5,6 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::BundleError;
+use crate::texture::Supercompression;
 
 /// Scalar type of an accessor's components.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -74,9 +75,20 @@ pub struct MeshDesc {
     pub attributes: Vec<Accessor>,
     /// Triangle-list indices (U16 or U32 scalars), each below `vertex_count`.
     pub indices: Option<Accessor>,
+    /// How the payload file stores the buffer: as it is, or as one Zstandard frame (since format
+    /// 1.6; absent from the manifest when `none`). The accessors describe the inflated buffer.
+    #[serde(default = "Supercompression::none", skip_serializing_if = "Supercompression::is_none")]
+    pub supercompression: Supercompression,
 }
 
 impl MeshDesc {
+    /// The bytes the accessors reach into, rounded up to 4: the buffer a reader uploads (what a
+    /// zstd-compressed payload inflates to).
+    pub fn buffer_bytes(&self) -> u64 {
+        let end = self.attributes.iter().chain(self.indices.iter()).filter_map(Accessor::end).max().unwrap_or(0);
+        end.div_ceil(4) * 4
+    }
+
     /// The attribute named `name`.
     pub fn attribute(&self, name: &str) -> Option<&Accessor> {
         self.attributes.iter().find(|a| a.name == name)
@@ -145,7 +157,15 @@ pub struct MeshData {
 impl MeshData {
     /// Starts an empty mesh of `vertex_count` vertices; add streams with the `push_*` methods.
     pub fn new(vertex_count: u32) -> Self {
-        MeshData { desc: MeshDesc { vertex_count, attributes: Vec::new(), indices: None }, bytes: Vec::new() }
+        MeshData {
+            desc: MeshDesc {
+                vertex_count,
+                attributes: Vec::new(),
+                indices: None,
+                supercompression: Supercompression::None,
+            },
+            bytes: Vec::new(),
+        }
     }
 
     fn push_stream(

@@ -89,7 +89,7 @@ pub fn strands_desc(points: u32) -> MeshDesc {
             a
         })
         .collect();
-    MeshDesc { vertex_count: points, attributes, indices: None }
+    MeshDesc { vertex_count: points, attributes, indices: None, supercompression: crate::Supercompression::None }
 }
 
 /// Every point of a `Strands` mesh, in record order; `None` when its layout is not

@@ -151,6 +151,18 @@ pub enum Supercompression {
     Zstd,
 }
 
+impl Supercompression {
+    /// [`Supercompression::None`] (serde's default for mesh payloads).
+    pub fn none() -> Supercompression {
+        Supercompression::None
+    }
+
+    /// Whether nothing is compressed.
+    pub fn is_none(&self) -> bool {
+        *self == Supercompression::None
+    }
+}
+
 /// Format and dimensions of a texture, as recorded in the manifest.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TextureDesc {

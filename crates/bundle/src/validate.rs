@@ -110,9 +110,9 @@ pub fn check_payload(asset: &Asset, bytes: &[u8], path: &Path, limits: &Limits) 
     let fail = |message: String| BundleError::Payload { path: path.to_path_buf(), asset: asset.id.clone(), message };
     match &asset.payload {
         Payload::Texture(_) => check_texture(&crate::bundle::decode_texture(asset, bytes, path, limits)?).map_err(fail),
-        Payload::Mesh(desc) => {
-            desc.check(bytes.len() as u64).map_err(fail)?;
-            check_mesh(desc, bytes).map_err(fail)
+        Payload::Mesh(_) => {
+            let mesh = crate::bundle::decode_mesh(asset, bytes.to_vec(), path, limits)?;
+            check_mesh(&mesh.desc, &mesh.bytes).map_err(fail)
         }
     }
 }
@@ -128,8 +128,8 @@ pub(crate) fn check_texture(tex: &TextureData) -> Result<(), String> {
 }
 
 /// An index at or past the vertex count, or a float attribute that is not finite, as a message
-/// (the accessors already checked against `bytes`).
-pub(crate) fn check_mesh(desc: &MeshDesc, bytes: &[u8]) -> Result<(), String> {
+/// (the accessors already checked against `bytes`, as [`crate::decode_mesh`] does).
+pub fn check_mesh(desc: &MeshDesc, bytes: &[u8]) -> Result<(), String> {
     if let Some(ix) = &desc.indices {
         for (i, e) in read_elements(bytes, ix).enumerate() {
             let v = read_uint(e, ix.component);

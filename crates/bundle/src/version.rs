@@ -19,8 +19,8 @@ impl FormatVersion {
     /// `tangent_v` streams of curvature meshes; 1.4 the `tile` placement of heightfields and
     /// horizon textures baked in tiles; 1.5 the compact `Strands` records (one 32-byte record
     /// per point, levels of detail) in place of the expanded strips, which readers no longer
-    /// take.
-    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 5 };
+    /// take; 1.6 zstd-compressed mesh payloads (a mesh's `supercompression`).
+    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 6 };
 }
 
 impl fmt::Display for FormatVersion {

@@ -44,7 +44,7 @@ use crate::limits::Limits;
 use crate::manifest::{Asset, MANIFEST_FILE, Manifest, Payload, Settings};
 use crate::mesh::MeshData;
 use crate::names::{check_asset_id, looks_like_payload, payload_file_name};
-use crate::texture::TextureData;
+use crate::texture::{Supercompression, TextureData};
 use crate::validate::{check_mesh, check_payload, check_texture};
 
 const TEMP_PREFIX: &str = ".hikage-tmp-";
@@ -235,8 +235,21 @@ impl BundleWriter {
         input_hash: &str,
         texture: &TextureData,
     ) -> Result<Asset, BundleError> {
+        self.put_texture_with(id, settings, input_hash, texture, &crate::zstd::fastest)
+    }
+
+    /// [`put_texture`](Self::put_texture), its levels compressed by `zstd` when its description
+    /// asks for zstd supercompression.
+    pub fn put_texture_with(
+        &mut self,
+        id: &str,
+        settings: Settings,
+        input_hash: &str,
+        texture: &TextureData,
+        zstd: crate::zstd::Encoder,
+    ) -> Result<Asset, BundleError> {
         check_texture(texture).map_err(|m| BundleError::InvalidData(format!("asset `{id}`: {m}")))?;
-        let bytes = crate::ktx2_file::encode(texture, crate::GENERATOR)?;
+        let bytes = crate::ktx2_file::encode_with(texture, crate::GENERATOR, zstd)?;
         self.put_payload(id, settings, input_hash, Payload::Texture(texture.desc.clone()), &bytes, "ktx2")
     }
 
@@ -248,11 +261,28 @@ impl BundleWriter {
         input_hash: &str,
         mesh: &MeshData,
     ) -> Result<Asset, BundleError> {
+        self.put_mesh_with(id, settings, input_hash, mesh, &crate::zstd::fastest)
+    }
+
+    /// [`put_mesh`](Self::put_mesh), its bytes stored as one frame compressed by `zstd` when its
+    /// description asks for zstd supercompression.
+    pub fn put_mesh_with(
+        &mut self,
+        id: &str,
+        settings: Settings,
+        input_hash: &str,
+        mesh: &MeshData,
+        zstd: crate::zstd::Encoder,
+    ) -> Result<Asset, BundleError> {
         mesh.desc
             .check(mesh.bytes.len() as u64)
             .and_then(|()| check_mesh(&mesh.desc, &mesh.bytes))
             .map_err(|m| BundleError::InvalidData(format!("asset `{id}`: {m}")))?;
-        self.put_payload(id, settings, input_hash, Payload::Mesh(mesh.desc.clone()), &mesh.bytes, "bin")
+        let payload = Payload::Mesh(mesh.desc.clone());
+        match mesh.desc.supercompression {
+            Supercompression::None => self.put_payload(id, settings, input_hash, payload, &mesh.bytes, "bin"),
+            Supercompression::Zstd => self.put_payload(id, settings, input_hash, payload, &zstd(&mesh.bytes), "bin"),
+        }
     }
 
     fn put_payload(

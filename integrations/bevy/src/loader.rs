@@ -111,8 +111,8 @@ impl AssetLoader for BundleLoader {
                     bundle.images.push(context.add_labeled_asset(asset.id.clone(), image));
                     bundle.image_ids.push(asset.id.clone());
                 }
-                Payload::Mesh(desc) => {
-                    let data = MeshData { desc: desc.clone(), bytes };
+                Payload::Mesh(_) => {
+                    let data = decoded_mesh(asset, bytes, &limits).map_err(&bad)?;
                     let mesh = mesh(asset.kind, &data).map_err(&bad)?;
                     if asset.kind == AssetKind::Strands {
                         let payload = hikage_runtime::PayloadData::Mesh(data);
@@ -154,8 +154,8 @@ fn sampler(settings: &Settings) -> ImageSampler {
     })
 }
 
-/// The payload's length and BLAKE3 against the manifest, then its contents as every reader
-/// checks them.
+/// The payload's length and BLAKE3 against the manifest, then a texture's contents as every
+/// reader checks them (a mesh's are checked once inflated, [`decoded_mesh`]).
 fn check(asset: &ManifestAsset, bytes: &[u8], limits: &Limits) -> Result<(), String> {
     if bytes.len() as u64 != asset.byte_length {
         return Err(format!("payload is {} bytes, the manifest says {}", bytes.len(), asset.byte_length));
@@ -164,7 +164,19 @@ fn check(asset: &ManifestAsset, bytes: &[u8], limits: &Limits) -> Result<(), Str
     if hash.as_str() != asset.blake3 {
         return Err(format!("payload BLAKE3 {hash} does not match the manifest's {}", asset.blake3));
     }
-    hikage_bundle::check_payload(asset, bytes, Path::new(&asset.file), limits).map_err(|e| e.to_string())
+    match asset.payload {
+        Payload::Texture(_) => {
+            hikage_bundle::check_payload(asset, bytes, Path::new(&asset.file), limits).map_err(|e| e.to_string())
+        }
+        Payload::Mesh(_) => Ok(()),
+    }
+}
+
+/// A mesh payload inflated (when compressed) and checked as every reader checks it.
+fn decoded_mesh(asset: &ManifestAsset, bytes: Vec<u8>, limits: &Limits) -> Result<MeshData, String> {
+    let mesh = hikage_bundle::decode_mesh(asset, bytes, Path::new(&asset.file), limits).map_err(|e| e.to_string())?;
+    hikage_bundle::validate::check_mesh(&mesh.desc, &mesh.bytes)?;
+    Ok(mesh)
 }
 
 /// A Bevy mesh of a mesh payload: each stream as its attribute ([`crate::attributes`]), U32

@@ -74,6 +74,8 @@ pub struct HeightfieldJob {
 pub struct HeightfieldOptions {
     /// Storage format.
     pub format: HeightFormat,
+    /// Payload compression: `Zstd(level)` (1–22), or `None`.
+    pub compression: crate::Compression,
 }
 
 impl<'de> Deserialize<'de> for HeightfieldJob {

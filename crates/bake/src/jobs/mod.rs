@@ -60,6 +60,17 @@ impl Job {
             Job::Strands(j) => j,
         }
     }
+
+    /// How the job's payloads are compressed.
+    pub fn compression(&self) -> crate::Compression {
+        match self {
+            Job::Heightfield(j) => j.options.compression,
+            Job::Horizon(j) => j.options.compression,
+            Job::Curvature(j) => j.compression,
+            Job::Relief(j) => j.options.compression,
+            Job::Strands(j) => j.options.compression,
+        }
+    }
 }
 
 /// What the runner needs from a job kind.

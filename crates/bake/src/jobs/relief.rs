@@ -60,6 +60,12 @@ pub struct ReliefOptions {
     /// left at their defaults.
     #[cfg_attr(feature = "clap", arg(long, value_enum))]
     pub preset: Option<ReliefPreset>,
+    /// Payload compression: `Zstd(level)` (1–22), or `None` (`--zstd 0`).
+    #[cfg_attr(
+        feature = "clap",
+        arg(long = "zstd", value_name = "LEVEL", value_parser = crate::compression::parse_level, default_value = "3")
+    )]
+    pub compression: crate::Compression,
 }
 
 impl Default for ReliefOptions {
@@ -72,6 +78,7 @@ impl Default for ReliefOptions {
             depth_scale: d.depth_scale,
             format: d.format,
             preset: None,
+            compression: crate::Compression::default(),
         }
     }
 }

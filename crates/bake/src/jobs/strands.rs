@@ -74,6 +74,12 @@ pub struct StrandsOptions {
     /// Linear RGB at the tip (see `root_color`).
     #[cfg_attr(feature = "clap", arg(long, value_name = "R,G,B", value_parser = parse_rgb))]
     pub tip_color: Option<[f32; 3]>,
+    /// Payload compression: `Zstd(level)` (1–22), or `None` (`--zstd 0`).
+    #[cfg_attr(
+        feature = "clap",
+        arg(long = "zstd", value_name = "LEVEL", value_parser = crate::compression::parse_level, default_value = "3")
+    )]
+    pub compression: crate::Compression,
 }
 
 /// `R,G,B` on the command line.

@@ -176,9 +176,12 @@ impl Pipeline {
         }
         let mut seen = std::collections::BTreeMap::new();
         for (index, job) in self.jobs.iter().enumerate() {
+            let compression = job.compression();
             let job = job.baker();
             let fields = spans.jobs.get(index);
-            crate::jobs::check(job).map_err(|message| setting(fields, job.id(), message))?;
+            crate::jobs::check(job)
+                .and_then(|()| compression.check())
+                .map_err(|message| setting(fields, job.id(), message))?;
             for out in job.outputs() {
                 if let Some(other) = seen.insert(out.clone(), job.id().to_string()) {
                     return Err(BakeError::Setting {

@@ -67,6 +67,12 @@ pub struct HorizonOptions {
     #[serde(skip_serializing_if = "Option::is_none")]
     #[cfg_attr(feature = "clap", arg(long, value_name = "SIZE"))]
     pub tile: Option<u32>,
+    /// Payload compression: `Zstd(level)` (1–22), or `None` (`--zstd 0`).
+    #[cfg_attr(
+        feature = "clap",
+        arg(long = "zstd", value_name = "LEVEL", value_parser = crate::compression::parse_level, default_value = "3")
+    )]
+    pub compression: crate::Compression,
 }
 
 impl Default for HorizonOptions {
@@ -80,6 +86,7 @@ impl Default for HorizonOptions {
             format: HorizonFormat::Rg16Float,
             ao: false,
             tile: None,
+            compression: crate::Compression::default(),
         }
     }
 }
