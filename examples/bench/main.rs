@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! cargo run --release --example bench              # every table
-//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load, size
+//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load, size, fourier
 //! cargo run --release --example bench -- scale     # tiled bakes: ~40 min, ~50 GiB of disk
 //! cargo run --release --example bench -- build-script   # clean builds of a game crate: ~15 min
 //! ```
@@ -14,6 +14,7 @@
 
 mod build_script;
 mod fit;
+mod fourier;
 mod hair;
 mod horizon;
 mod load;
@@ -98,6 +99,9 @@ fn main() {
     }
     if wanted("size") {
         size::run();
+    }
+    if wanted("fourier") {
+        fourier::run();
     }
     if args.iter().any(|a| a == "scale") {
         scale::run();
