@@ -65,14 +65,7 @@ fn row(name: &str, dir: &Path) {
     let on_disk: u64 = files.iter().map(|f| std::fs::metadata(f).map_or(0, |m| m.len())).sum();
     let (t_plain, _) = best_of(3, || files.iter().map(|f| std::fs::read(f).map_or(0, |b| b.len())).sum::<usize>());
     let (t, cpu) = best_of(3, || CpuBundle::read(dir).expect("the bundle reads"));
-    let decoded: usize = cpu
-        .assets
-        .iter()
-        .map(|a| match &a.payload {
-            hikage_runtime::PayloadData::Texture(t) => t.levels.iter().map(Vec::len).sum(),
-            hikage_runtime::PayloadData::Mesh(m) => m.bytes.len(),
-        })
-        .sum();
+    let decoded = decoded_bytes(&cpu);
     let mib = |b: f64| b / (1024.0 * 1024.0);
     println!(
         "| {name} | {:.1} MiB | {:.1} MiB | {:.3} s | {:.0} | {:.3} s ({:.0} MiB/s) | {:.1}× its time |",
@@ -84,6 +77,17 @@ fn row(name: &str, dir: &Path) {
         mib(on_disk as f64) / t_plain,
         t / t_plain
     );
+}
+
+/// The bytes of every payload of `cpu` as decoded: texture levels and mesh buffers.
+pub fn decoded_bytes(cpu: &CpuBundle) -> usize {
+    cpu.assets
+        .iter()
+        .map(|a| match &a.payload {
+            hikage_runtime::PayloadData::Texture(t) => t.levels.iter().map(Vec::len).sum(),
+            hikage_runtime::PayloadData::Mesh(m) => m.bytes.len(),
+        })
+        .sum()
 }
 
 pub fn copy_dir(from: &Path, to: &Path) {

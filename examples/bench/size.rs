@@ -9,7 +9,7 @@ use hikage_bake::run::{RunOptions, run_pipeline};
 use hikage_runtime::CpuBundle;
 
 use crate::best_of;
-use crate::load::copy_dir;
+use crate::load::{copy_dir, decoded_bytes};
 
 /// The job kinds of `pipeline.ron`, each given a `compression:` in front of its fields.
 const KINDS: [&str; 5] = ["Heightfield(", "Horizon(", "Curvature(", "Relief(", "Strands("];
@@ -41,14 +41,7 @@ pub fn run() {
         let summary =
             hikage_bundle::inspect::summarize(hikage_bundle::Bundle::open(&bundle).expect("opens").manifest());
         let (load, cpu) = best_of(3, || CpuBundle::read(&bundle).expect("the bundle reads"));
-        let inflated: usize = cpu
-            .assets
-            .iter()
-            .map(|a| match &a.payload {
-                hikage_runtime::PayloadData::Texture(t) => t.levels.iter().map(Vec::len).sum(),
-                hikage_runtime::PayloadData::Mesh(m) => m.bytes.len(),
-            })
-            .sum();
+        let inflated = decoded_bytes(&cpu);
         let (raw_disk, raw_load) = *raw.get_or_insert((summary.disk_bytes, load));
         println!(
             "| {name} | {:.1} MiB | {:.2}× | {:.1} MiB | {bake:.1} s | {load:.3} s | {:.0} | {:.0} | {:.2}× |",

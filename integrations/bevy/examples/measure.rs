@@ -123,6 +123,11 @@ fn terrain_ms(root: &std::path::Path, scene: TerrainScene) -> f64 {
                 .insert(MeshMaterial3d(plain));
         }
     }
+    frame_ms(&mut app)
+}
+
+/// Milliseconds per frame of `app` after 10 frames to settle: best of `RUNS` runs of `FRAMES`.
+fn frame_ms(app: &mut Headless) -> f64 {
     app.update_until(10, |_| false);
     (0..RUNS)
         .map(|_| {
@@ -190,14 +195,7 @@ fn hair_ms(root: &std::path::Path, draw: Option<HairDraw>) -> f64 {
     if draw.is_none() {
         app.world().despawn(hair);
     }
-    app.update_until(10, |_| false);
-    (0..RUNS)
-        .map(|_| {
-            let start = Instant::now();
-            app.update_until(FRAMES, |_| false);
-            start.elapsed().as_secs_f64() * 1000.0 / FRAMES as f64
-        })
-        .fold(f64::INFINITY, f64::min)
+    frame_ms(&mut app)
 }
 
 fn hair_frame_time(root: &std::path::Path) {
