@@ -110,6 +110,10 @@ pub fn check_payload(asset: &Asset, bytes: &[u8], path: &Path, limits: &Limits) 
     let fail = |message: String| BundleError::Payload { path: path.to_path_buf(), asset: asset.id.clone(), message };
     match &asset.payload {
         Payload::Texture(_) => check_texture(&crate::bundle::decode_texture(asset, bytes, path, limits)?).map_err(fail),
+        Payload::Mesh(desc) if desc.supercompression.is_none() => {
+            desc.check(bytes.len() as u64).map_err(fail)?;
+            check_mesh(desc, bytes).map_err(fail)
+        }
         Payload::Mesh(_) => {
             let mesh = crate::bundle::decode_mesh(asset, bytes.to_vec(), path, limits)?;
             check_mesh(&mesh.desc, &mesh.bytes).map_err(fail)

@@ -54,13 +54,14 @@ struct ViewHair {
     size: (u32, u32),
 }
 
-/// The renderers by (hair, camera), the strips uploaded by hair, and the cameras told once
-/// that MSAA hides the hair.
+/// The renderers by (hair, camera), the strips uploaded by hair, the cameras told once that
+/// MSAA hides the hair, and the hairs (with their records) that failed to build, said once.
 #[derive(Resource, Default)]
 struct HairRenderers {
     views: HashMap<(Entity, Entity), ViewHair>,
     uploads: HashMap<Entity, (usize, GpuBundle)>,
     warned: Vec<Entity>,
+    failed: Vec<(Entity, usize)>,
 }
 
 pub(super) fn build(app: &mut App) {
@@ -146,10 +147,14 @@ fn prepare(
     let mut live = Vec::new();
     for h in &hairs.0 {
         let strips_id = h.hair.strips.as_str();
+        if renderers.failed.contains(&(h.entity, key(&h.strips))) {
+            continue;
+        }
         let upload = renderers.uploads.entry(h.entity).or_insert_with(|| (0, GpuBundle::default()));
         if upload.0 != key(&h.strips) {
             if let Err(e) = upload.1.insert(device, queue, &h.strips) {
                 bevy_log::error!("hikage: hair `{strips_id}`: {e}");
+                renderers.failed.push((h.entity, key(&h.strips)));
                 continue;
             }
             upload.0 = key(&h.strips);
@@ -179,7 +184,8 @@ fn prepare(
                     Err(e) => {
                         renderers.views.remove(&slot);
                         bevy_log::error!("hikage: hair `{strips_id}`: {e}");
-                        continue;
+                        renderers.failed.push((h.entity, key(&h.strips)));
+                        break;
                     }
                 }
             }
@@ -201,6 +207,7 @@ fn prepare(
     renderers.views.retain(|slot, _| live.contains(slot));
     let hair_entities: Vec<Entity> = hairs.0.iter().map(|h| h.entity).collect();
     renderers.uploads.retain(|e, _| hair_entities.contains(e));
+    renderers.failed.retain(|(e, _)| hair_entities.contains(e));
 }
 
 /// The runtime's frame for hair `h` seen by a camera.
