@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! cargo run --release --example bench              # every table
-//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load, size, fourier
+//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load, size, fourier, bc
 //! cargo run --release --example bench -- scale     # tiled bakes: ~40 min, ~50 GiB of disk
 //! cargo run --release --example bench -- build-script   # clean builds of a game crate: ~15 min
 //! ```
@@ -12,6 +12,7 @@
 //! Every figure is the best of several runs (machines here are noisy), with its baseline
 //! measured in the same run. Set `RAYON_NUM_THREADS` to change the thread count.
 
+mod bc;
 mod build_script;
 mod fit;
 mod fourier;
@@ -102,6 +103,9 @@ fn main() {
     }
     if wanted("fourier") {
         fourier::run();
+    }
+    if wanted("bc") {
+        bc::run();
     }
     if args.iter().any(|a| a == "scale") {
         scale::run();

@@ -25,6 +25,7 @@
 //! hikage_bake::build::BuildScript::new("assets/pipeline.ron").bake();
 //! ```
 
+pub mod bc4;
 pub mod build;
 pub mod cache;
 pub mod compression;

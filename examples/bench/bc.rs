@@ -1,0 +1,132 @@
+//! Block compression's accuracy cost, measured before the formats are wired into bundles
+//! (issue 31): relief depth maps through BC4 and horizon angles through BC5, each with the plain
+//! (nearest) encoder and the conservative one of `hikage_bake::bc4`, against the maps as baked.
+
+use hikage_bake::bc4::{self, Side};
+use hikage_bake::heightfield::{Heightfield, LoadOptions, load_samples};
+use hikage_bake::horizon::{self, HorizonFormat, HorizonParams};
+use hikage_bake::relief::{self, ReliefParams};
+use hikage_bundle::EdgeMode;
+
+/// Sun elevations (degrees) of the horizon shadow test.
+const ELEVATIONS: [f64; 5] = [2.0, 5.0, 10.0, 20.0, 30.0];
+
+pub fn run() {
+    relief_rows();
+    horizon_rows();
+}
+
+fn heightfield(path: &str) -> Heightfield {
+    let s = load_samples(std::path::Path::new(path), &LoadOptions::default())
+        .expect("run from the repository root (data/ is read)");
+    Heightfield::from_samples(s.width, s.height, s.values)
+}
+
+/// Relief depth maps (R8, the default 32 × 16 directions of 32² maps) through BC4: texels
+/// decoded deeper than the stored depth (the promise: never a hit deeper than the true first
+/// hit), and the error.
+fn relief_rows() {
+    println!("Relief depth maps through BC4 (0.5× the R8 maps' memory), against the maps as baked:\n");
+    println!("| map | encoder | texels decoded deeper (promise broken) | mean error | max error |");
+    println!("|---|---|---|---|---|");
+    for name in ["bricks", "fbm", "spikes"] {
+        let hf = heightfield(&format!("data/relief_{name}.png"));
+        let baked = relief::bake(&hf, &ReliefParams::default(), &|_, _| {}).expect("valid settings");
+        let d = &baked.depth.desc;
+        let (w, h) = (d.width as usize, d.height as usize);
+        let layers: Vec<&[u8]> = baked.depth.levels[0].chunks_exact(w * h).collect();
+        for (encoder, side) in [("plain (nearest)", Side::Nearest), ("conservative (never deeper)", Side::Below)] {
+            let (mut deeper, mut sum, mut max, mut n) = (0usize, 0f64, 0f32, 0usize);
+            for layer in &layers {
+                for (decoded, &t) in bc4::round_trip(layer, w, h, side).into_iter().zip(layer.iter()) {
+                    deeper += (decoded > t as f32) as usize;
+                    sum += (decoded - t as f32).abs() as f64;
+                    max = max.max((decoded - t as f32).abs());
+                    n += 1;
+                }
+            }
+            println!(
+                "| {name} | {encoder} | {deeper} of {n} ({:.1}%) | {:.2}/255 | {:.1}/255 |",
+                100.0 * deeper as f64 / n as f64,
+                sum / n as f64,
+                max
+            );
+        }
+    }
+    println!();
+}
+
+/// Horizon angles of the default terrain (512² × 32 directions) through BC5's angle channel
+/// (stored as rg8's β/π + 0.5): angle errors against the float bake, and the shadow test's
+/// flips, light leaks among them (shadowed by the float bake, lit after compression).
+fn horizon_rows() {
+    let mut hf = heightfield("data/terrain.png");
+    hf.texel_size = (80.0, 60.0);
+    hf.height_scale = 1500.0;
+    let params = HorizonParams {
+        directions: 32,
+        edge: EdgeMode::Clamp,
+        format: HorizonFormat::Rg32Float,
+        ..HorizonParams::default()
+    };
+    let baked = horizon::bake(&hf, &params, &|_, _| {}).expect("valid settings");
+    let (w, h) = (hf.width as usize, hf.height as usize);
+    let level = &baked.texture.levels[0];
+    let beta: Vec<f64> = (0..w * h * 32)
+        .map(|i| {
+            let o = i * 8;
+            (f32::from_le_bytes([level[o], level[o + 1], level[o + 2], level[o + 3]]) as f64).atan()
+        })
+        .collect();
+    let unorm = |b: f64| (b / std::f64::consts::PI + 0.5) * 255.0;
+    println!("Horizon angles through BC5 (1 byte a texel for angle and distance: 0.25× rg16f, 0.5× rg8),");
+    println!("default terrain 512² × 32 directions, against the float bake; suns at {ELEVATIONS:?}°:\n");
+    println!("| storage | max angle error | p99 | shadow flips | light leaks among them |");
+    println!("|---|---|---|---|---|");
+    let cases: [(&str, Store); 4] = [
+        ("rg8 (β rounded)", Box::new(move |s: &[f64]| s.iter().map(|&b| unorm(b).round()).collect())),
+        (
+            "BC5, plain (β rounded, nearest)",
+            Box::new(move |s: &[f64]| {
+                through_bc4(s.iter().map(|&b| unorm(b).round() as u8).collect(), w, h, Side::Nearest)
+            }),
+        ),
+        ("rg8, β rounded up", Box::new(move |s: &[f64]| s.iter().map(|&b| unorm(b).ceil()).collect())),
+        (
+            "BC5, conservative (β rounded up, never below)",
+            Box::new(move |s: &[f64]| {
+                through_bc4(s.iter().map(|&b| unorm(b).ceil().min(255.0) as u8).collect(), w, h, Side::Above)
+            }),
+        ),
+    ];
+    for (name, store) in cases {
+        let (mut errors, mut flips, mut leaks) = (Vec::with_capacity(beta.len()), 0usize, 0usize);
+        for slice in beta.chunks_exact(w * h) {
+            for (&b, stored) in slice.iter().zip(store(slice)) {
+                let got = (stored / 255.0 - 0.5) * std::f64::consts::PI;
+                errors.push((got - b).abs().to_degrees() as f32);
+                for e in ELEVATIONS.map(f64::to_radians) {
+                    if (e > b) != (e > got) {
+                        flips += 1;
+                        leaks += (e > got) as usize;
+                    }
+                }
+            }
+        }
+        errors.sort_by(f32::total_cmp);
+        println!(
+            "| {name} | {:.2}° | {:.2}° | {flips} | {leaks} |",
+            errors.last().copied().unwrap_or(0.0),
+            errors[errors.len() * 99 / 100]
+        );
+    }
+    println!();
+}
+
+/// How one storage turns a slice of true angles into what it reads back (units of 1/255).
+type Store = Box<dyn Fn(&[f64]) -> Vec<f64>>;
+
+/// A slice of 8-bit values through BC4 with `side`, back in units of 1/255.
+fn through_bc4(v: Vec<u8>, w: usize, h: usize, side: Side) -> Vec<f64> {
+    bc4::round_trip(&v, w, h, side).into_iter().map(f64::from).collect()
+}
