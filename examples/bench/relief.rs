@@ -21,13 +21,13 @@ const RAYS_PER_ANGLE: usize = 2500;
 /// The accuracy bar: at most this share of rays ends more than one texel from the ground truth.
 const BAR: f64 = 0.01;
 
-fn load(name: &str) -> Heightfield {
+pub(crate) fn load(name: &str) -> Heightfield {
     let path = Path::new("data").join(format!("relief_{name}.png"));
     let s = load_samples(&path, &LoadOptions::default()).expect("run from the repository root (data/ is read)");
     Heightfield::from_samples(s.width, s.height, s.values)
 }
 
-fn rays(maps: &ReliefMaps) -> Vec<ReliefRay> {
+pub(crate) fn rays(maps: &ReliefMaps) -> Vec<ReliefRay> {
     let mut seed = 0x9e3779b97f4a7c15u64;
     let mut next = move || {
         seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -96,7 +96,7 @@ fn evaluate(maps: &ReliefMaps, tracer: Tracer, rays: &[ReliefRay], truth: &[f32]
     (bad as f64 / n, height as f64 / n, depth as f64 / n)
 }
 
-fn candidates(top: u32) -> Vec<Vec<Tracer>> {
+pub(crate) fn candidates(top: u32) -> Vec<Vec<Tracer>> {
     // Steps about 1.2× apart from 4 to 2048.
     let steps: Vec<u32> = (0..35).map(|k| (4.0 * 1.2f64.powi(k)).round() as u32).filter(|&s| s <= 2048).collect();
     let binary = [0u32, 1, 2, 3, 4, 6, 8];
@@ -191,7 +191,7 @@ pub fn run() {
 }
 
 /// The runtime's maps from a bake, read by `rule`.
-fn maps_of(hf: &Heightfield, params: &ReliefParams, rule: DirectionRule) -> ReliefMaps {
+pub(crate) fn maps_of(hf: &Heightfield, params: &ReliefParams, rule: DirectionRule) -> ReliefMaps {
     let baked = relief::bake(hf, params, &|_, _| {}).expect("valid");
     let info = hikage_bundle::ReliefSettings {
         max_mip: String::new(),
@@ -207,8 +207,13 @@ fn maps_of(hf: &Heightfield, params: &ReliefParams, rule: DirectionRule) -> Reli
 
 /// The cheapest tracer of `list` meeting the bar, as (tracer, share off, height reads, depth
 /// reads), or the most accurate one when none does (`Err`).
-type Outcome = (Tracer, (f64, f64, f64));
-fn cheapest(maps: &ReliefMaps, list: &[Tracer], rays: &[ReliefRay], truth: &[f32]) -> Result<Outcome, Outcome> {
+pub(crate) type Outcome = (Tracer, (f64, f64, f64));
+pub(crate) fn cheapest(
+    maps: &ReliefMaps,
+    list: &[Tracer],
+    rays: &[ReliefRay],
+    truth: &[f32],
+) -> Result<Outcome, Outcome> {
     let results: Vec<_> = list.iter().map(|&t| (t, evaluate(maps, t, rays, truth))).collect();
     let best = results
         .iter()
