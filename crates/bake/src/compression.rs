@@ -54,14 +54,15 @@ impl Compression {
         }
     }
 
-    /// Compresses `data` into one frame (with its content size) at the level; the bytes are the
-    /// same for the same input on any thread.
+    /// `data` as the payload stores it: one zstd frame (with its content size) at the level,
+    /// the same bytes for the same input on any thread; as it is for `None`.
     pub fn compress(self, data: &[u8]) -> Vec<u8> {
-        let level = match self {
-            Compression::None => 0,
-            Compression::Zstd(level) => level,
-        };
-        zstd::bulk::compress(data, level).expect("compressing a buffer in memory cannot fail")
+        match self {
+            Compression::None => data.to_vec(),
+            Compression::Zstd(level) => {
+                zstd::bulk::compress(data, level).expect("compressing a buffer in memory cannot fail")
+            }
+        }
     }
 }
 
@@ -90,6 +91,7 @@ mod tests {
             let refused = hikage_bundle::zstd::inflate(&frame, 199_999).unwrap_err();
             assert!(refused.contains("declares 200000 bytes"), "{refused}");
         }
+        assert_eq!(Compression::None.compress(&data), data);
         assert_eq!(parse_level("0"), Ok(Compression::None));
         assert_eq!(parse_level("19"), Ok(Compression::Zstd(19)));
         assert!(parse_level("23").unwrap_err().contains("outside 1–22"));

@@ -101,17 +101,15 @@ fn extract(
 ) {
     out.0.clear();
     let ambient = ambient.as_ref().map_or(glam::Vec3::ZERO, |a| to_glam(a.color.to_linear()) * a.brightness);
+    // The scene's light for hairs that name none: the first with shadow maps, else the first.
+    let first = lights.iter().min_by_key(|(e, l, _)| (!l.shadow_maps_enabled, *e));
     for (entity, hair, maps) in &hairs {
         let Some(strips) = bundles.get(&hair.bundle).and_then(|b| b.strands(&hair.strips)) else {
             continue;
         };
         let light = match hair.light {
             Some(e) => lights.get(e).ok(),
-            None => {
-                let mut all: Vec<_> = lights.iter().collect();
-                all.sort_by_key(|(e, l, _)| (!l.shadow_maps_enabled, *e));
-                all.into_iter().next()
-            }
+            None => first,
         };
         let (to_light, light_color) = match light {
             Some((_, l, t)) => (
@@ -196,9 +194,9 @@ fn prepare(
             }
             let frame = frame(h, extracted, camera, &v.renderer);
             v.renderer.update(queue, &frame);
+            // The receivers read the light's half of the uniform, the same for every camera.
             if !uniform_written && let Some(buffer) = buffers.get(&h.maps.uniform) {
-                let bytes = hikage_runtime::bytemuck::bytes_of(&v.renderer.uniform(&frame)).to_vec();
-                queue.write_buffer(&buffer.buffer, 0, &bytes);
+                queue.write_buffer(&buffer.buffer, 0, hikage_runtime::bytemuck::bytes_of(&v.renderer.uniform(&frame)));
                 uniform_written = true;
             }
             live.push(slot);
