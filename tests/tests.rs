@@ -10,6 +10,7 @@ mod concurrency;
 mod corpus;
 mod data;
 mod gpu;
+mod gpu_bc;
 mod gpu_fit;
 mod gpu_hair;
 mod gpu_horizon;

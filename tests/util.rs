@@ -186,8 +186,18 @@ pub fn stderr(out: &Output) -> String {
 /// A device, or `None` with the reason printed when there is none and it is not required
 /// (`HIKAGE_REQUIRE_GPU=1` turns a missing device into a failure).
 pub fn gpu(test: &str) -> Option<hikage_scenes::headless::Headless> {
+    gpu_with(test, hikage_runtime::wgpu::Features::FLOAT32_BLENDABLE)
+}
+
+/// Whether `HIKAGE_REQUIRE_GPU=1`.
+pub fn gpu_required() -> bool {
+    hikage_scenes::headless::gpu_required()
+}
+
+/// [`gpu`] with the features of `wanted` the adapter has, and no others.
+pub fn gpu_with(test: &str, wanted: hikage_runtime::wgpu::Features) -> Option<hikage_scenes::headless::Headless> {
     use hikage_scenes::headless::{Headless, gpu_required};
-    match Headless::new() {
+    match Headless::with_features(wanted) {
         Ok(g) => Some(g),
         Err(e) if !gpu_required() => {
             eprintln!("skipping {test}: {e} (set HIKAGE_REQUIRE_GPU=1 to make this a failure)");

@@ -1,12 +1,17 @@
-//! BC4 blocks (one unorm channel, 4×4 texels in 8 bytes; BC5 is two of them): the encoder the
-//! block-compressed formats will use, plain or conservative toward one side.
+//! BC4 blocks (one unorm channel, 4×4 texels in 8 bytes; BC5 is two of them): the encoder of
+//! the block-compressed formats, plain or conservative toward one side.
 //!
 //! A block stores two endpoints `r0 > r1` and a 3-bit index per texel into the eight values
 //! `r0`, `r1` and the six between (`(r0·(7−k) + r1·k) / 7`, k = 1…6), which a GPU decodes
 //! without rounding them to 8 bits. The plain encoder takes each texel's nearest value; a
 //! conservative one never crosses the texel's true value on its side — [`Side::Below`] for relief
 //! depth maps (a decoded depth above the true first hit would report a hit too deep),
-//! [`Side::Above`] for horizon angles (a decoded horizon below the true one leaks light).
+//! [`Side::Above`] for horizon angles (a decoded horizon below the true one leaks light) — with
+//! a step of 1/255 to spare on the interpolated values, for decoders that round them to 8 bits
+//! in fixed point (lavapipe's come back up to 1.3 steps toward an endpoint).
+
+use hikage_bundle::{TextureData, TextureDesc, TextureFormat};
+use rayon::prelude::*;
 
 /// Which way a texel may be off.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -45,12 +50,18 @@ pub fn encode(texels: &[u8; 16], side: Side) -> [u8; 8] {
     let mut bits = 0u64;
     for (i, &t) in texels.iter().enumerate() {
         let t = t as f32;
-        let ok = |v: f32| match side {
-            Side::Nearest => true,
-            Side::Below => v <= t,
-            Side::Above => v >= t,
+        // Endpoints decode exactly everywhere; the six values between them may come back a step
+        // of 1/255 off, rounded toward either endpoint (lavapipe interpolates in 8-bit fixed
+        // point and is off by up to 1.3), so a conservative side keeps them a whole step clear.
+        let ok = |k: usize| {
+            let margin = if k < 2 { 0.0 } else { 1.0 };
+            match side {
+                Side::Nearest => true,
+                Side::Below => p[k] <= t - margin,
+                Side::Above => p[k] >= t + margin,
+            }
         };
-        let best = (0..8).filter(|&k| ok(p[k])).min_by(|&a, &b| (p[a] - t).abs().total_cmp(&(p[b] - t).abs()));
+        let best = (0..8).filter(|&k| ok(k)).min_by(|&a, &b| (p[a] - t).abs().total_cmp(&(p[b] - t).abs()));
         bits |= (best.expect("the endpoints bracket every texel") as u64) << (3 * i);
     }
     let mut out = [0u8; 8];
@@ -60,23 +71,44 @@ pub fn encode(texels: &[u8; 16], side: Side) -> [u8; 8] {
     out
 }
 
-/// Decodes one block to its 16 values, in units of 1/255, as a GPU does (both modes).
-pub fn decode(block: &[u8; 8]) -> [f32; 16] {
-    let (r0, r1) = (block[0], block[1]);
-    let p = if r0 > r1 {
-        palette(r0, r1)
-    } else {
-        let (a, b) = (r0 as f32, r1 as f32);
-        let mut p = [a, b, 0.0, 0.0, 0.0, 0.0, 0.0, 255.0];
-        for k in 1..=4 {
-            p[k + 1] = (a * (5 - k) as f32 + b * k as f32) / 5.0;
-        }
-        p
-    };
-    let mut bits = [0u8; 8];
-    bits[..6].copy_from_slice(&block[2..]);
-    let bits = u64::from_le_bytes(bits);
-    std::array::from_fn(|i| p[((bits >> (3 * i)) & 7) as usize])
+/// Decodes one block to its 16 values, in units of 1/255, as a GPU decodes them (both modes).
+pub use hikage_bundle::bc::decode_block as decode;
+
+/// Encodes an `R8Unorm` or `Rg8Unorm` texture (every level, slice and layer) as BC4 or BC5,
+/// channel `c` off only toward `sides[c]`. Blocks past an edge repeat the edge's texels.
+/// Slices are encoded in parallel; the output does not depend on the thread count.
+pub fn compress(texture: &TextureData, sides: &[Side]) -> TextureData {
+    let channels = texture.desc.format.channels();
+    debug_assert!(texture.desc.format.is_unorm() && !texture.desc.format.is_block_compressed());
+    debug_assert_eq!(sides.len(), channels);
+    let format = if channels == 1 { TextureFormat::Bc4RUnorm } else { TextureFormat::Bc5RgUnorm };
+    let desc = TextureDesc { format, ..texture.desc.clone() };
+    let levels = (0..desc.levels)
+        .map(|l| {
+            let (w, h, _) = desc.level_extent(l);
+            let (w, h) = (w as usize, h as usize);
+            let slice_blocks = w.div_ceil(4) * h.div_ceil(4) * 8 * channels;
+            let texels = &texture.levels[l as usize];
+            let mut out = vec![0u8; desc.level_bytes(l).expect("the texture's own size") as usize];
+            out.par_chunks_mut(slice_blocks).zip(texels.par_chunks(w * h * channels)).for_each(|(out, slice)| {
+                let mut blocks = out.chunks_exact_mut(8 * channels);
+                for by in (0..h).step_by(4) {
+                    for bx in (0..w).step_by(4) {
+                        let block = blocks.next().expect("one block per 4×4 square");
+                        for (c, &side) in sides.iter().enumerate() {
+                            let at = |i: usize| {
+                                let (x, y) = ((bx + i % 4).min(w - 1), (by + i / 4).min(h - 1));
+                                slice[(y * w + x) * channels + c]
+                            };
+                            block[8 * c..8 * c + 8].copy_from_slice(&encode(&std::array::from_fn(at), side));
+                        }
+                    }
+                }
+            });
+            out
+        })
+        .collect();
+    TextureData { desc, levels }
 }
 
 /// Encodes and decodes a whole `w × h` single-channel image (`texels`, row-major, at least
@@ -105,7 +137,8 @@ mod tests {
     use super::*;
 
     /// Blocks of every shape (flat, two values, ramps, noise, the extremes): the conservative
-    /// encoders never cross their side, the plain one is within half a palette step, and a
+    /// encoders never cross their side (their values between the endpoints a step clear of it)
+    /// and stay within a palette step and that spare step, the plain one within half a step, and a
     /// decoded block agrees with the BC4 layout written by hand for a known block.
     #[test]
     fn sides_hold_and_errors_stay_within_a_step() {
@@ -125,13 +158,18 @@ mod tests {
         for b in &blocks {
             let (lo, hi) = (*b.iter().min().unwrap() as f32, *b.iter().max().unwrap() as f32);
             let step = ((hi - lo) / 7.0).max(1.0);
-            let below = decode(&encode(b, Side::Below));
-            let above = decode(&encode(b, Side::Above));
+            let (below_block, above_block) = (encode(b, Side::Below), encode(b, Side::Above));
+            let (below, above) = (decode(&below_block), decode(&above_block));
             let nearest = decode(&encode(b, Side::Nearest));
+            // An endpoint may meet the texel; a value between the endpoints keeps a step clear.
+            let endpoint = |block: &[u8; 8], v: f32| v == block[0] as f32 || v == block[1] as f32;
             for i in 0..16 {
                 let t = b[i] as f32;
-                assert!(below[i] <= t && t - below[i] <= step + 1e-3, "{b:?}: {} for {t}", below[i]);
-                assert!(above[i] >= t && above[i] - t <= step + 1e-3, "{b:?}: {} for {t}", above[i]);
+                let clear = |v: f32, block: &[u8; 8]| endpoint(block, v) || (v - t).abs() >= 1.0;
+                assert!(below[i] <= t && clear(below[i], &below_block), "{b:?}: {} for {t}", below[i]);
+                assert!(above[i] >= t && clear(above[i], &above_block), "{b:?}: {} for {t}", above[i]);
+                assert!(t - below[i] <= step + 1.0 + 1e-3, "{b:?}: {} for {t}", below[i]);
+                assert!(above[i] - t <= step + 1.0 + 1e-3, "{b:?}: {} for {t}", above[i]);
                 assert!((nearest[i] - t).abs() <= step / 2.0 + 1e-3, "{b:?}: {} for {t}", nearest[i]);
             }
         }

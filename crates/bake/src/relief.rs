@@ -42,6 +42,10 @@ pub enum ReliefFormat {
     /// Half-float depth, rounded down.
     #[cfg_attr(feature = "clap", value(name = "r16f"))]
     R16Float,
+    /// BC4 blocks (0.5× r8): the 8-bit depths rounded down, block-encoded never deeper than
+    /// them, so the maps keep their promise of never reporting a hit past the first.
+    #[cfg_attr(feature = "clap", value(name = "bc4"))]
+    Bc4RUnorm,
 }
 
 impl ReliefFormat {
@@ -50,13 +54,14 @@ impl ReliefFormat {
         match self {
             ReliefFormat::R8Unorm => TextureFormat::R8Unorm,
             ReliefFormat::R16Float => TextureFormat::R16Float,
+            ReliefFormat::Bc4RUnorm => TextureFormat::Bc4RUnorm,
         }
     }
 
     /// The largest stored value not above `depth` (a stored depth must never overshoot a hit).
     pub fn round_down(self, depth: f32) -> f32 {
         match self {
-            ReliefFormat::R8Unorm => (depth * 255.0).floor().clamp(0.0, 255.0) / 255.0,
+            ReliefFormat::R8Unorm | ReliefFormat::Bc4RUnorm => (depth * 255.0).floor().clamp(0.0, 255.0) / 255.0,
             ReliefFormat::R16Float => f16_round_down(depth),
         }
     }
@@ -332,7 +337,7 @@ pub fn bake(hf: &Heightfield, s: &ReliefParams, progress: &(dyn Fn(u64, u64) + S
     let values: Vec<f32> = maps.concat();
     let depth = TextureData::from_f32(
         TextureDesc {
-            format: s.format.texture_format(),
+            format: s.format.texture_format().decoded(),
             dimension: TextureDimension::D2Array,
             width: out_w,
             height: out_h,
@@ -345,6 +350,10 @@ pub fn bake(hf: &Heightfield, s: &ReliefParams, progress: &(dyn Fn(u64, u64) + S
         &values,
     )
     .map_err(|e| e.to_string())?;
+    let depth = match s.format {
+        ReliefFormat::Bc4RUnorm => crate::bc4::compress(&depth, &[crate::bc4::Side::Below]),
+        _ => depth,
+    };
     Ok(BakedRelief { depth, max_mip: max_mip_texture(&mm), thickness })
 }
 

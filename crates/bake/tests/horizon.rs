@@ -196,6 +196,47 @@ fn eight_bit_maps_are_the_exact_map_rounded() {
     }
 }
 
+/// BC5 horizons keep the side that leaks no light: against the exact (rg32f) bake of the same
+/// field, every decoded texel's slope is at least the exact slope (its distance at most the
+/// exact distance), open sky stays open sky, and the error stays within a block's spread; on
+/// both edge modes, and at 1 and 2 threads byte for byte.
+#[test]
+fn bc5_maps_never_decode_below_the_exact_horizon() {
+    let hf = field(100, synth::terrain(100), (1.0, 1.5), 6.0); // 100: blocks past the edge
+    for edge in [EdgeMode::Wrap, EdgeMode::Clamp] {
+        let mut s = settings(16, edge);
+        let exact = horizon::bake(&hf, &s, &|_, _| {}).unwrap();
+        s.format = HorizonFormat::Bc5RgUnorm;
+        let bc = horizon::bake(&hf, &s, &|_, _| {}).unwrap();
+        let desc = &bc.texture.desc;
+        assert_eq!(desc.format, hikage_bundle::TextureFormat::Bc5RgUnorm);
+        assert_eq!(bc.texture.levels[0].len(), 25 * 25 * 16 * 16, "25 × 25 blocks of 16 bytes, 16 slices");
+        let (mut worst, mut open) = (0.0f64, 0usize);
+        for k in 0..16 {
+            for row in 0..100 {
+                for col in 0..100 {
+                    let (es, ed) = horizon::decode(&exact, k, row, col);
+                    let (bs, bd) = horizon::decode(&bc, k, row, col);
+                    if es <= OPEN_SKY_SLOPE {
+                        open += 1;
+                        continue;
+                    }
+                    assert!(bs >= es, "{edge:?} ({k}, {row}, {col}): slope {bs} below the exact {es}");
+                    assert!(bd <= ed + 1e-3 * ed.abs(), "{edge:?} ({k}, {row}, {col}): distance {bd} past {ed}");
+                    worst = worst.max((bs as f64).atan().to_degrees() - (es as f64).atan().to_degrees());
+                }
+            }
+        }
+        eprintln!("{edge:?}: BC5 slope at most {worst:.2}° above the exact one; {open} open-sky texels");
+        assert!(worst < 45.0, "{worst}°");
+        if edge == EdgeMode::Clamp {
+            assert!(open > 0, "a clamped map has rays that leave it");
+        }
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        assert_eq!(one.install(|| horizon::bake(&hf, &s, &|_, _| {})).unwrap(), bc);
+    }
+}
+
 #[test]
 fn bad_settings_are_refused() {
     let hf = field(8, vec![0.0; 64], (1.0, 1.0), 1.0);

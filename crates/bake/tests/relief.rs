@@ -168,3 +168,37 @@ fn the_direction_table_matches_the_layers() {
     let (t, p) = dirs.angles(16 * 31 + 4);
     assert!((t.to_degrees() - 88.59375).abs() < 1e-3 && (p.to_degrees() - 90.0).abs() < 1e-4);
 }
+
+/// BC4 depth maps keep the maps' promise: against the R8 maps of the same bake (the depths
+/// rounded down), no decoded texel is deeper, on every family; half the bytes; each texel within
+/// one palette step (a seventh of its 4×4 block's spread) and the encoder's spare step of its
+/// 8-bit depth.
+#[test]
+fn bc4_maps_are_never_deeper_than_the_r8_maps() {
+    let n = 64;
+    for (name, samples) in families(n) {
+        let hf = Heightfield::from_samples(n, n, samples);
+        let params = ReliefParams { size: Some(16), ..Default::default() };
+        let r8 = relief::bake(&hf, &params, &|_, _| {}).unwrap();
+        let bc4 = relief::bake(&hf, &ReliefParams { format: ReliefFormat::Bc4RUnorm, ..params }, &|_, _| {}).unwrap();
+        assert_eq!(bc4.depth.desc.format, hikage_bundle::TextureFormat::Bc4RUnorm);
+        assert_eq!(bc4.depth.levels[0].len() * 2, r8.depth.levels[0].len(), "{name}: half the bytes");
+        assert_eq!(bc4.max_mip, r8.max_mip, "{name}: the pyramid is not block-compressed");
+        let (want, got) = (r8.depth.channel_f32(0, 0), bc4.depth.channel_f32(0, 0));
+        let deeper = want.iter().zip(&got).filter(|(w, g)| g > w).count();
+        eprintln!("{name}: BC4 {deeper} texels deeper");
+        assert_eq!(deeper, 0, "{name}");
+        let m = 16;
+        for (layer, (want, got)) in want.chunks_exact(m * m).zip(got.chunks_exact(m * m)).enumerate() {
+            for t in 0..m * m {
+                let (bx, by) = (t % m / 4 * 4, t / m / 4 * 4);
+                let block = (0..16).map(|i| want[(by + i / 4) * m + bx + i % 4]);
+                let (lo, hi) = block.fold((1f32, 0f32), |(lo, hi), v| (lo.min(v), hi.max(v)));
+                // A palette step, the encoder's spare step for imprecise decoders, and half a
+                // byte for the decoded value rounded to 8 bits.
+                let step = ((hi - lo) / 7.0).max(1.0 / 255.0) + 1.5 / 255.0 + 1e-6;
+                assert!(want[t] - got[t] <= step, "{name} layer {layer} texel {t}: {} for {}", got[t], want[t]);
+            }
+        }
+    }
+}

@@ -70,14 +70,10 @@ pub struct Summary {
     pub gpu_bytes: u64,
 }
 
-/// Texels of every level, slice and layer of `t`, in bytes.
+/// Texels (or blocks) of every level, slice and layer of `t`, in bytes: what a device that
+/// samples the format holds.
 fn texture_gpu_bytes(t: &crate::TextureDesc) -> u64 {
-    (0..t.levels)
-        .map(|level| {
-            let (w, h, d) = t.level_extent(level);
-            w as u64 * h as u64 * d as u64 * t.layers.max(1) as u64 * t.format.texel_bytes() as u64
-        })
-        .sum()
+    t.total_bytes().unwrap_or(u64::MAX)
 }
 
 fn strand_sets(s: &StrandsSettings, points: u64) -> Vec<StrandSet> {

@@ -2,11 +2,12 @@
 //! crate.
 //!
 //! The writer follows the KTX 2.0 specification (Khronos, 2020): the 80-byte header, the level
-//! index, a Khronos Basic Data Format Descriptor (colour model RGBSDA, linear transfer), the
-//! key/value data with a `KTXwriter` entry, then the levels from the smallest to the largest.
-//! Uncompressed levels are aligned to `lcm(texel size, 4)`; zstd-supercompressed levels
-//! (scheme 2) need no alignment. `bytesPlane0` stays the texel size even when supercompressed,
-//! as the Data Format specification recommends.
+//! index, a Khronos Basic Data Format Descriptor (colour model RGBSDA, or BC4/BC5 with 4×4
+//! texel blocks; linear transfer), the key/value data with a `KTXwriter` entry, then the levels
+//! from the smallest to the largest. Uncompressed levels are aligned to `lcm(block size, 4)`
+//! (a texel is a block of one); zstd-supercompressed levels (scheme 2) need no alignment.
+//! `bytesPlane0` stays the block size even when supercompressed, as the Data Format
+//! specification recommends.
 
 use std::path::Path;
 
@@ -63,7 +64,7 @@ pub fn encode_with(texture: &TextureData, writer: &str, zstd: crate::zstd::Encod
     let kvd_offset = dfd_offset + dfd.len();
     let mut end = kvd_offset + kvd.len();
     let align = match desc.supercompression {
-        Supercompression::None => lcm(desc.format.texel_bytes(), 4),
+        Supercompression::None => lcm(desc.format.block_bytes(), 4),
         Supercompression::Zstd => 1,
     };
     // Levels are stored smallest (highest index) first.
@@ -119,23 +120,27 @@ pub fn encode_with(texture: &TextureData, writer: &str, zstd: crate::zstd::Encod
 }
 
 /// The DFD section: its total size, then one Khronos Basic descriptor block with a sample per
-/// channel.
+/// channel (an uncompressed format) or per 64-bit BC4 block half (BC4, BC5).
 fn data_format_descriptor(format: TextureFormat) -> Vec<u8> {
     let channels = format.channels();
-    let bits = format.channel_bytes() * 8;
     let block_size = 24 + 16 * channels;
     let mut d = Vec::with_capacity(4 + block_size);
     d.extend_from_slice(&((4 + block_size) as u32).to_le_bytes()); // dfdTotalSize
     d.extend_from_slice(&0u32.to_le_bytes()); // vendorId 0 (Khronos), descriptorType 0 (basic)
     d.extend_from_slice(&2u16.to_le_bytes()); // versionNumber
     d.extend_from_slice(&(block_size as u16).to_le_bytes());
-    d.push(1); // colorModel: KHR_DF_MODEL_RGBSDA
+    let (model, block, bits) = match format {
+        TextureFormat::Bc4RUnorm => (131, [3, 3, 0, 0], 64), // KHR_DF_MODEL_BC4, 4×4 blocks
+        TextureFormat::Bc5RgUnorm => (132, [3, 3, 0, 0], 64), // KHR_DF_MODEL_BC5
+        _ => (1, [0, 0, 0, 0], format.channel_bytes() * 8),  // KHR_DF_MODEL_RGBSDA, 1×1×1×1
+    };
+    d.push(model); // colorModel
     d.push(1); // colorPrimaries: BT709
     d.push(1); // transferFunction: LINEAR
     d.push(0); // flags: alpha straight
-    d.extend_from_slice(&[0, 0, 0, 0]); // texelBlockDimension 1×1×1×1 (stored minus one)
+    d.extend_from_slice(&block); // texelBlockDimension (each stored minus one)
     let mut planes = [0u8; 8];
-    planes[0] = format.texel_bytes() as u8;
+    planes[0] = format.block_bytes() as u8;
     d.extend_from_slice(&planes);
     let channel_ids: &[u8] = if channels == 4 { &[0, 1, 2, 15] } else { &[0, 1] }; // R, G, (B, A)
     for (c, &id) in channel_ids.iter().enumerate().take(channels) {
@@ -144,8 +149,9 @@ fn data_format_descriptor(format: TextureFormat) -> Vec<u8> {
         let qualifiers = if format.is_float() { 0x80 | 0x40 } else { 0 }; // FLOAT | SIGNED
         d.push(id | qualifiers);
         d.extend_from_slice(&[0, 0, 0, 0]); // samplePosition
-        let (lower, upper) = match format.channel_bytes() {
-            1 => (0u32, 255u32),
+        let (lower, upper) = match (format.is_block_compressed(), format.channel_bytes()) {
+            (true, _) => (0u32, u32::MAX),
+            (false, 1) => (0u32, 255u32),
             _ => ((-1.0f32).to_bits(), 1.0f32.to_bits()),
         };
         d.extend_from_slice(&lower.to_le_bytes());

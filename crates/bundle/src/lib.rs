@@ -26,6 +26,7 @@
 //! # Ok::<(), hikage_bundle::BundleError>(())
 //! ```
 
+pub mod bc;
 mod bundle;
 mod error;
 pub mod files;

@@ -451,8 +451,9 @@ impl HorizonSettings {
 }
 
 /// Decodes a stored horizon texel `(c0, c1)` (as the texture format returns it) to
-/// `(tan β, d)`: float formats store them as they are; `Rg8Unorm` stores `β/π + 0.5` (0 is open
-/// sky) and `d / distance_scale`. The one definition the baker's decoder and export share.
+/// `(tan β, d)`: float formats store them as they are; `Rg8Unorm` and `Bc5RgUnorm` store
+/// `β/π + 0.5` (0 is open sky) and `d / distance_scale`. The one definition the baker's decoder
+/// and export share.
 pub fn decode_horizon_texel(
     format: crate::TextureFormat,
     c0: f32,
@@ -460,12 +461,11 @@ pub fn decode_horizon_texel(
     distance_scale: f32,
     open_sky_slope: f32,
 ) -> (f32, f32) {
-    match format {
-        crate::TextureFormat::Rg8Unorm => {
-            let slope = if c0 <= 0.0 { open_sky_slope } else { ((c0 - 0.5) * std::f32::consts::PI).tan() };
-            (slope, c1 * distance_scale)
-        }
-        _ => (c0, c1),
+    if format.is_unorm() {
+        let slope = if c0 <= 0.0 { open_sky_slope } else { ((c0 - 0.5) * std::f32::consts::PI).tan() };
+        (slope, c1 * distance_scale)
+    } else {
+        (c0, c1)
     }
 }
 

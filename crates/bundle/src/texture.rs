@@ -27,11 +27,16 @@ pub enum TextureFormat {
     Rg32Float,
     /// Four 32-bit float channels.
     Rgba32Float,
+    /// One unsigned normalised channel in BC4 blocks: 4×4 texels in 8 bytes (half of `R8Unorm`).
+    Bc4RUnorm,
+    /// Two unsigned normalised channels in BC5 blocks: 4×4 texels in 16 bytes (half of
+    /// `Rg8Unorm`), each channel a BC4 block.
+    Bc5RgUnorm,
 }
 
 impl TextureFormat {
     /// Every format, for tests and argument parsing.
-    pub const ALL: [TextureFormat; 8] = [
+    pub const ALL: [TextureFormat; 10] = [
         TextureFormat::R8Unorm,
         TextureFormat::Rg8Unorm,
         TextureFormat::R16Float,
@@ -40,29 +45,32 @@ impl TextureFormat {
         TextureFormat::R32Float,
         TextureFormat::Rg32Float,
         TextureFormat::Rgba32Float,
+        TextureFormat::Bc4RUnorm,
+        TextureFormat::Bc5RgUnorm,
     ];
 
     /// Channels per texel.
     pub fn channels(self) -> usize {
         use TextureFormat::*;
         match self {
-            R8Unorm | R16Float | R32Float => 1,
-            Rg8Unorm | Rg16Float | Rg32Float => 2,
+            R8Unorm | R16Float | R32Float | Bc4RUnorm => 1,
+            Rg8Unorm | Rg16Float | Rg32Float | Bc5RgUnorm => 2,
             Rgba16Float | Rgba32Float => 4,
         }
     }
 
-    /// Bytes per channel (the KTX2 `typeSize`).
+    /// Bytes per channel (the KTX2 `typeSize`; 1 for the block formats, whose channels decode to
+    /// 8-bit unorm).
     pub fn channel_bytes(self) -> usize {
         use TextureFormat::*;
         match self {
-            R8Unorm | Rg8Unorm => 1,
+            R8Unorm | Rg8Unorm | Bc4RUnorm | Bc5RgUnorm => 1,
             R16Float | Rg16Float | Rgba16Float => 2,
             R32Float | Rg32Float | Rgba32Float => 4,
         }
     }
 
-    /// Bytes per texel.
+    /// Bytes per texel; for a block format, per texel of its [`decoded`](Self::decoded) format.
     pub fn texel_bytes(self) -> usize {
         self.channels() * self.channel_bytes()
     }
@@ -70,6 +78,41 @@ impl TextureFormat {
     /// True for the float formats (their texels must be finite).
     pub fn is_float(self) -> bool {
         self.channel_bytes() > 1
+    }
+
+    /// True for the block-compressed formats (BC4, BC5).
+    pub fn is_block_compressed(self) -> bool {
+        matches!(self, TextureFormat::Bc4RUnorm | TextureFormat::Bc5RgUnorm)
+    }
+
+    /// Texels along each side of a block: 4 for the block formats, 1 otherwise.
+    pub fn block_side(self) -> u32 {
+        if self.is_block_compressed() { 4 } else { 1 }
+    }
+
+    /// Bytes per block (per texel for the uncompressed formats).
+    pub fn block_bytes(self) -> usize {
+        match self {
+            TextureFormat::Bc4RUnorm => 8,
+            TextureFormat::Bc5RgUnorm => 16,
+            f => f.texel_bytes(),
+        }
+    }
+
+    /// The uncompressed format a block format decodes to (`R8Unorm`, `Rg8Unorm`); itself for
+    /// the others.
+    pub fn decoded(self) -> TextureFormat {
+        match self {
+            TextureFormat::Bc4RUnorm => TextureFormat::R8Unorm,
+            TextureFormat::Bc5RgUnorm => TextureFormat::Rg8Unorm,
+            f => f,
+        }
+    }
+
+    /// True when channels read back as unsigned normalised values in [0, 1]: the 8-bit formats
+    /// and the block formats that decode to them.
+    pub fn is_unorm(self) -> bool {
+        self.decoded().channel_bytes() == 1
     }
 
     /// The Vulkan `VkFormat` value stored in the KTX2 header.
@@ -84,6 +127,8 @@ impl TextureFormat {
             R32Float => 100,
             Rg32Float => 103,
             Rgba32Float => 109,
+            Bc4RUnorm => 139,
+            Bc5RgUnorm => 141,
         }
     }
 
@@ -104,6 +149,8 @@ impl TextureFormat {
             R32Float => "r32f",
             Rg32Float => "rg32f",
             Rgba32Float => "rgba32f",
+            Bc4RUnorm => "bc4",
+            Bc5RgUnorm => "bc5",
         }
     }
 
@@ -198,14 +245,21 @@ impl TextureDesc {
         (shrink(self.width), shrink(self.height), depth)
     }
 
-    /// Uncompressed byte size of mip `level` (all layers and slices), or `None` on overflow.
+    /// Uncompressed byte size of mip `level` (all layers and slices), or `None` on overflow. A
+    /// block format's level is whole blocks: its width and height round up to multiples of 4.
     pub fn level_bytes(&self, level: u32) -> Option<u64> {
         let (w, h, d) = self.level_extent(level);
-        (w as u64)
-            .checked_mul(h as u64)?
+        let side = self.format.block_side();
+        (w.div_ceil(side) as u64)
+            .checked_mul(h.div_ceil(side) as u64)?
             .checked_mul(d as u64)?
             .checked_mul(self.layers as u64)?
-            .checked_mul(self.format.texel_bytes() as u64)
+            .checked_mul(self.format.block_bytes() as u64)
+    }
+
+    /// This description with a block format replaced by the format it decodes to.
+    pub fn decoded(&self) -> TextureDesc {
+        TextureDesc { format: self.format.decoded(), ..self.clone() }
     }
 
     /// Uncompressed byte size of all levels, or `None` on overflow.
@@ -283,6 +337,13 @@ impl TextureData {
     /// Builds a single-level texture from f32 values in `[slice][row][col][channel]` order,
     /// encoding them in `desc.format`.
     pub fn from_f32(desc: TextureDesc, values: &[f32]) -> Result<TextureData, BundleError> {
+        if desc.format.is_block_compressed() {
+            return Err(BundleError::InvalidData(format!(
+                "{:?} texels are blocks: encode the {:?} texture into blocks instead",
+                desc.format,
+                desc.format.decoded()
+            )));
+        }
         let texels = desc.level_bytes(0).unwrap_or(u64::MAX) / desc.format.texel_bytes() as u64;
         let expected = texels.saturating_mul(desc.format.channels() as u64);
         if values.len() as u64 != expected || desc.levels != 1 {
@@ -304,9 +365,22 @@ impl TextureData {
         Ok(TextureData { desc, levels: vec![bytes] })
     }
 
+    /// The texture with block-compressed levels decoded to their 8-bit format (as a GPU decodes
+    /// them, rounded to the nearest 1/255); an uncompressed texture as it is.
+    pub fn decoded(&self) -> std::borrow::Cow<'_, TextureData> {
+        if !self.desc.format.is_block_compressed() {
+            return std::borrow::Cow::Borrowed(self);
+        }
+        let levels = (0..self.desc.levels).map(|l| crate::bc::decode_level(&self.desc, l, &self.levels[l as usize]));
+        std::borrow::Cow::Owned(TextureData { desc: self.desc.decoded(), levels: levels.collect() })
+    }
+
     /// Channel `channel` of every texel of `level`, decoded to f32, in
     /// `[slice][row][col]` order.
     pub fn channel_f32(&self, level: u32, channel: usize) -> Vec<f32> {
+        if self.desc.format.is_block_compressed() {
+            return self.decoded().channel_f32(level, channel);
+        }
         let format = self.desc.format;
         let tb = format.texel_bytes();
         self.levels[level as usize].chunks_exact(tb).map(|t| format.decode_channel(t, channel)).collect()
@@ -314,6 +388,9 @@ impl TextureData {
 
     /// Every channel of `level` decoded to f32, in `[slice][row][col][channel]` order.
     pub fn to_f32(&self, level: u32) -> Vec<f32> {
+        if self.desc.format.is_block_compressed() {
+            return self.decoded().to_f32(level);
+        }
         let format = self.desc.format;
         let cb = format.channel_bytes();
         self.levels[level as usize].chunks_exact(cb).map(|c| format.decode_channel(c, 0)).collect()

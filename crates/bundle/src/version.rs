@@ -19,8 +19,9 @@ impl FormatVersion {
     /// `tangent_v` streams of curvature meshes; 1.4 the `tile` placement of heightfields and
     /// horizon textures baked in tiles; 1.5 the compact `Strands` records (one 32-byte record
     /// per point, levels of detail) in place of the expanded strips, which readers no longer
-    /// take; 1.6 zstd-compressed mesh payloads (a mesh's `supercompression`).
-    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 6 };
+    /// take; 1.6 zstd-compressed mesh payloads (a mesh's `supercompression`); 1.7 the
+    /// block-compressed texture formats `Bc4RUnorm` and `Bc5RgUnorm`.
+    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 7 };
 }
 
 impl fmt::Display for FormatVersion {

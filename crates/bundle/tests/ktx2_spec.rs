@@ -111,3 +111,41 @@ fn r8_array_and_zstd_headers() {
     assert!(len < 1000, "zeros compress: {len} bytes");
     assert_eq!(&b[offset..offset + 4], &[0x28, 0xB5, 0x2F, 0xFD], "zstd frame magic");
 }
+
+/// BC5 and BC4 as the specification lays out block formats: typeSize 1, the BC colour models
+/// with 4×4 texel blocks, one 64-bit sample per channel, levels of whole blocks aligned to the
+/// block size.
+#[test]
+fn block_format_headers() {
+    // 10 × 6 texels: 3 × 2 blocks per slice, 3 slices.
+    let tex = texture(TextureFormat::Bc5RgUnorm, TextureDimension::D3, 10, 6, 3, 1);
+    let b = encode(&tex, "w").unwrap();
+    assert_eq!(u32_at(&b, 12), 141, "VK_FORMAT_BC5_UNORM_BLOCK");
+    assert_eq!(u32_at(&b, 16), 1, "typeSize of a block-compressed format");
+    assert_eq!((u32_at(&b, 20), u32_at(&b, 24), u32_at(&b, 28)), (10, 6, 3), "size in texels");
+    let level_offset = u64_at(&b, 80) as usize;
+    assert_eq!(level_offset % 16, 0, "level aligned to lcm(block size 16, 4)");
+    assert_eq!(u64_at(&b, 88), 3 * 2 * 3 * 16, "byteLength: whole blocks");
+    let d = u32_at(&b, 48) as usize;
+    assert_eq!(u32_at(&b, 52), 4 + 24 + 2 * 16, "two samples");
+    assert_eq!(b[d + 12], 132, "colorModel KHR_DF_MODEL_BC5");
+    assert_eq!(&b[d + 16..d + 20], &[3, 3, 0, 0], "texelBlockDimension 4x4x1x1");
+    assert_eq!(b[d + 20], 16, "bytesPlane0 = block size");
+    for (s, channel) in [(0usize, 0u8), (1, 1)] {
+        let at = d + 28 + 16 * s;
+        assert_eq!(u16_at(&b, at), 64 * s as u16, "bitOffset: red block, then green");
+        assert_eq!(b[at + 2], 63, "bitLength - 1");
+        assert_eq!(b[at + 3], channel, "channelType: unsigned, red then green");
+        assert_eq!((u32_at(&b, at + 8), u32_at(&b, at + 12)), (0, u32::MAX), "sampleLower/Upper");
+    }
+
+    let tex = texture(TextureFormat::Bc4RUnorm, TextureDimension::D2Array, 8, 8, 1, 2);
+    let b = encode(&tex, "w").unwrap();
+    assert_eq!(u32_at(&b, 12), 139, "VK_FORMAT_BC4_UNORM_BLOCK");
+    assert_eq!(u64_at(&b, 88), 2 * 2 * 2 * 8, "byteLength: 2 × 2 blocks × 2 layers");
+    let d = u32_at(&b, 48) as usize;
+    assert_eq!((b[d + 12], b[d + 20]), (131, 8), "colorModel KHR_DF_MODEL_BC4, 8-byte blocks");
+    // The ktx2 crate reads the same format back.
+    let reader = ktx2::Reader::new(&b[..]).unwrap();
+    assert_eq!(reader.header().format, Some(ktx2::Format::BC4_UNORM_BLOCK));
+}

@@ -102,10 +102,11 @@ pub use bytemuck;
 pub use draw::DrawOptions;
 pub use error::RuntimeError;
 pub use glam;
+pub use hikage_bundle;
 pub use hikage_bundle::PayloadData;
 pub use load::{Changes, CpuAsset, CpuBundle};
 pub use scene::{SCENE_WGSL, SceneUniform};
-pub use upload::{GpuBundle, GpuMesh, GpuTexture, wgpu_format};
+pub use upload::{GpuBundle, GpuMesh, GpuTexture, OPTIONAL_FEATURES, device_format, wgpu_format};
 pub use wgpu;
 
 /// The WGSL sources the components build, as each builds them: a typo in a shader or a

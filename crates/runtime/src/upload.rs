@@ -18,7 +18,66 @@ pub fn wgpu_format(format: TextureFormat) -> wgpu::TextureFormat {
         TextureFormat::R32Float => wgpu::TextureFormat::R32Float,
         TextureFormat::Rg32Float => wgpu::TextureFormat::Rg32Float,
         TextureFormat::Rgba32Float => wgpu::TextureFormat::Rgba32Float,
+        TextureFormat::Bc4RUnorm => wgpu::TextureFormat::Bc4RUnorm,
+        TextureFormat::Bc5RgUnorm => wgpu::TextureFormat::Bc5RgUnorm,
     }
+}
+
+/// The wgpu features hikage uses when the adapter has them; request `OPTIONAL_FEATURES &
+/// adapter.features()`. Without them everything still loads and draws: block-compressed
+/// textures are decoded at upload (2× or 4× the memory), 32-bit float horizons are sampled
+/// nearest, hair blends in half floats.
+///
+/// ```no_run
+/// # async fn f(adapter: &hikage_runtime::wgpu::Adapter) -> Result<(), hikage_runtime::wgpu::RequestDeviceError> {
+/// let (device, queue) = adapter
+///     .request_device(&hikage_runtime::wgpu::DeviceDescriptor {
+///         required_features: hikage_runtime::OPTIONAL_FEATURES & adapter.features(),
+///         ..Default::default()
+///     })
+///     .await?;
+/// # Ok(()) }
+/// ```
+pub const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::TEXTURE_COMPRESSION_BC
+    .union(wgpu::Features::TEXTURE_COMPRESSION_BC_SLICED_3D)
+    .union(wgpu::Features::FLOAT32_FILTERABLE)
+    .union(wgpu::Features::FLOAT32_BLENDABLE);
+
+/// The format a texture of `desc` has on `device`: its own, or for a block-compressed texture
+/// the device cannot hold, the 8-bit format it decodes to. A device holds BC4/BC5 with
+/// `TEXTURE_COMPRESSION_BC` (3D textures also need `TEXTURE_COMPRESSION_BC_SLICED_3D`, which
+/// WebGPU's BC lacks) when the level-0 size is a multiple of the 4×4 block, as wgpu asks.
+///
+/// ```
+/// use hikage_runtime::hikage_bundle::{Supercompression, TextureDesc, TextureDimension, TextureFormat};
+///
+/// let desc = TextureDesc {
+///     format: TextureFormat::Bc5RgUnorm,
+///     dimension: TextureDimension::D3,
+///     width: 512,
+///     height: 512,
+///     depth: 32,
+///     layers: 1,
+///     levels: 1,
+///     supercompression: Supercompression::Zstd,
+///     channels: vec!["slope".into(), "distance".into()],
+/// };
+/// let bc = hikage_runtime::wgpu::Features::TEXTURE_COMPRESSION_BC;
+/// assert_eq!(hikage_runtime::device_format(bc, &desc), TextureFormat::Rg8Unorm);
+/// let sliced = bc | hikage_runtime::wgpu::Features::TEXTURE_COMPRESSION_BC_SLICED_3D;
+/// assert_eq!(hikage_runtime::device_format(sliced, &desc), TextureFormat::Bc5RgUnorm);
+/// ```
+pub fn device_format(features: wgpu::Features, desc: &TextureDesc) -> TextureFormat {
+    let format = desc.format;
+    if !format.is_block_compressed() {
+        return format;
+    }
+    let mut needed = wgpu::Features::TEXTURE_COMPRESSION_BC;
+    if desc.dimension == TextureDimension::D3 {
+        needed |= wgpu::Features::TEXTURE_COMPRESSION_BC_SLICED_3D;
+    }
+    let whole_blocks = desc.width.is_multiple_of(4) && desc.height.is_multiple_of(4);
+    if features.contains(needed) && whole_blocks { format } else { format.decoded() }
 }
 
 /// A texture on the device.
@@ -26,7 +85,9 @@ pub fn wgpu_format(format: TextureFormat) -> wgpu::TextureFormat {
 pub struct GpuTexture {
     /// The manifest entry.
     pub asset: Asset,
-    /// Format and dimensions as in the manifest.
+    /// Format and dimensions as on the device: the manifest's, except that a block-compressed
+    /// texture the device cannot hold was decoded at upload and says `R8Unorm` or `Rg8Unorm`
+    /// (see [`device_format`]).
     pub desc: TextureDesc,
     /// The texture (usage: `TEXTURE_BINDING | COPY_DST | COPY_SRC`).
     pub texture: wgpu::Texture,
@@ -164,7 +225,7 @@ fn check_texture(device: &wgpu::Device, asset: &Asset, d: &TextureDesc) -> Resul
             format!("{} layers is above the device limit of {}", d.layers, limits.max_texture_array_layers),
         ));
     }
-    let format = wgpu_format(d.format);
+    let format = wgpu_format(device_format(device.features(), d));
     let needed = format.guaranteed_format_features(device.features());
     if !needed.allowed_usages.contains(wgpu::TextureUsages::TEXTURE_BINDING) {
         return Err(unsupported(asset, format!("format {format:?} cannot be sampled on this device")));
@@ -178,8 +239,13 @@ fn upload_texture(
     asset: &Asset,
     tex: &TextureData,
 ) -> Result<GpuTexture, RuntimeError> {
+    check_texture(device, asset, &tex.desc)?;
+    let tex = if device_format(device.features(), &tex.desc) == tex.desc.format {
+        std::borrow::Cow::Borrowed(tex)
+    } else {
+        tex.decoded()
+    };
     let d = &tex.desc;
-    check_texture(device, asset, d)?;
     let (dimension, depth_or_array_layers) = match d.dimension {
         TextureDimension::D2 => (wgpu::TextureDimension::D2, 1),
         TextureDimension::D2Array => (wgpu::TextureDimension::D2, d.layers),
@@ -196,9 +262,13 @@ fn upload_texture(
         usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::COPY_SRC,
         view_formats: &[],
     });
+    let side = d.format.block_side();
     for (level, data) in tex.levels.iter().enumerate() {
         let (w, h, depth) = d.level_extent(level as u32);
         let slices = if d.dimension == TextureDimension::D3 { depth } else { d.layers };
+        // Block formats copy whole blocks: rows of blocks, and the level's size rounded up to
+        // them (wgpu's physical size of a level smaller than a block).
+        let (blocks_wide, blocks_high) = (w.div_ceil(side), h.div_ceil(side));
         queue.write_texture(
             wgpu::TexelCopyTextureInfo {
                 texture: &texture,
@@ -209,10 +279,10 @@ fn upload_texture(
             data,
             wgpu::TexelCopyBufferLayout {
                 offset: 0,
-                bytes_per_row: Some(w * d.format.texel_bytes() as u32),
-                rows_per_image: Some(h),
+                bytes_per_row: Some(blocks_wide * d.format.block_bytes() as u32),
+                rows_per_image: Some(blocks_high),
             },
-            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: slices },
+            wgpu::Extent3d { width: blocks_wide * side, height: blocks_high * side, depth_or_array_layers: slices },
         );
     }
     let view = texture.create_view(&wgpu::TextureViewDescriptor {

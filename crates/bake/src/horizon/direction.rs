@@ -86,7 +86,7 @@ impl<'a> Direction<'a> {
             orientation,
             size,
             m,
-            format: params.format,
+            format: params.format.working(),
             distance_scale,
             frame,
             clamped: params.edge == EdgeMode::Clamp,
@@ -96,7 +96,7 @@ impl<'a> Direction<'a> {
             end: reach.unwrap_or(f64::INFINITY),
             steps: Steps::new(m, step_len, cols, g.stride),
             line_rows,
-            texel_bytes: params.format.texture_format().texel_bytes(),
+            texel_bytes: params.format.working().texture_format().texel_bytes(),
         }
     }
 
@@ -185,7 +185,7 @@ impl<'a> Direction<'a> {
                 let untile = match self.format {
                     HorizonFormat::Rg8Unorm => untile::<2>,
                     HorizonFormat::Rg16Float => untile::<4>,
-                    HorizonFormat::Rg32Float => untile::<8>,
+                    HorizonFormat::Rg32Float | HorizonFormat::Bc5RgUnorm => untile::<8>,
                 };
                 untile(&tile, g.w, row + 1 - first, out, &|col| self.at(col, first));
             }
@@ -255,7 +255,9 @@ impl<'a> Direction<'a> {
             // full) precision picks the same slope as comparing before rounding.
             let replace = match format {
                 HorizonFormat::Rg16Float => best.0 > half::f16::from_le_bytes([texel[0], texel[1]]).to_f32(),
-                HorizonFormat::Rg32Float => best.0 > f32::from_le_bytes([texel[0], texel[1], texel[2], texel[3]]),
+                HorizonFormat::Rg32Float | HorizonFormat::Bc5RgUnorm => {
+                    best.0 > f32::from_le_bytes([texel[0], texel[1], texel[2], texel[3]])
+                }
                 // An 8-bit slope cannot tell a tie: then the near pass is traced again for this texel.
                 HorizonFormat::Rg8Unorm => match rg8::compare(best.0, texel[0]) {
                     std::cmp::Ordering::Greater => true,

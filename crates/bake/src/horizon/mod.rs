@@ -63,7 +63,8 @@ const ROW_BAND: usize = 64;
 pub struct HorizonTexture {
     /// The 3D texture, `W×H×D`, φ on the depth axis.
     pub texture: TextureData,
-    /// For `Rg8Unorm`: distance = channel 1 × `distance_scale`; 1 for float formats.
+    /// For `Rg8Unorm` and `Bc5RgUnorm`: distance = channel 1 × `distance_scale`; 1 for float
+    /// formats.
     pub distance_scale: f32,
 }
 
@@ -76,7 +77,7 @@ pub fn bake(
     params.check()?;
     let (w, h, d) = (hf.width as usize, hf.height as usize, params.directions as usize);
     let (sx, sy) = (hf.texel_size.0 as f64, hf.texel_size.1 as f64);
-    let texel_bytes = params.format.texture_format().texel_bytes();
+    let texel_bytes = params.format.working().texture_format().texel_bytes();
     let distance_scale = distance_scale(params, (w, h), hf.texel_size);
 
     // Zeroed pages are not resident until written, so the output grows as it is filled.
@@ -114,23 +115,24 @@ pub fn bake(
     });
     progress(done.fetch_add(1, Ordering::Relaxed) + 1, d as u64);
     let desc = TextureDesc { width: hf.width, height: hf.height, ..texture_desc(params) };
-    Ok(HorizonTexture { texture: TextureData { desc, levels: vec![bytes] }, distance_scale })
+    let baked = HorizonTexture { texture: TextureData { desc, levels: vec![bytes] }, distance_scale };
+    Ok(encode::finish(params.format, baked, distance_scale))
 }
 
-/// For `Rg8Unorm`, the distance a stored 1 stands for: the largest any horizon of a `map`-sized
+/// For the 8-bit formats, the distance a stored 1 stands for: the largest any horizon of a `map`-sized
 /// field can have; 1 for float formats.
 fn distance_scale(params: &HorizonParams, (w, h): (usize, usize), (sx, sy): (f32, f32)) -> f32 {
     let diag = ((w as f64 * sx as f64).powi(2) + (h as f64 * sy as f64).powi(2)).sqrt();
-    match params.format {
-        HorizonFormat::Rg8Unorm => params.max_distance.map_or(diag * 2.0, |m| m as f64).max(1e-6) as f32,
-        _ => 1.0,
+    match params.format.scales_distance() {
+        true => params.max_distance.map_or(diag * 2.0, |m| m as f64).max(1e-6) as f32,
+        false => 1.0,
     }
 }
 
 /// The description of a horizon texture of `params`, its width and height 0 for the caller.
 fn texture_desc(params: &HorizonParams) -> TextureDesc {
     TextureDesc {
-        format: params.format.texture_format(),
+        format: params.format.working().texture_format(),
         dimension: TextureDimension::D3,
         width: 0,
         height: 0,

@@ -119,7 +119,7 @@ pub fn bake_tile(
     let (map, size) = ((place.map.0 as usize, place.map.1 as usize), (ww as usize, wh as usize));
     let d = params.directions as usize;
     let format = params.format;
-    let texel_bytes = format.texture_format().texel_bytes();
+    let texel_bytes = format.working().texture_format().texel_bytes();
     let distance_scale = super::distance_scale(params, map, window.texel_size);
     let (sx, sy) = (window.texel_size.0 as f64, window.texel_size.1 as f64);
     let pad = params.near_field as usize + 2;
@@ -147,7 +147,8 @@ pub fn bake_tile(
         progress(done.fetch_add(1, Ordering::Relaxed) + 1, d as u64);
     });
     let desc = TextureDesc { width: tw, height: th, ..texture_desc(params) };
-    Ok(HorizonTexture { texture: TextureData { desc, levels: vec![bytes] }, distance_scale })
+    let baked = HorizonTexture { texture: TextureData { desc, levels: vec![bytes] }, distance_scale };
+    Ok(super::encode::finish(format, baked, distance_scale))
 }
 
 /// Whether, along one axis of a `map`-texel map, the window (start, length) holds the tile

@@ -32,12 +32,12 @@ pub use terrain::{Sun, TerrainExtent, TerrainFrame, TerrainShadows, TerrainUnifo
 pub const HORIZON_WGSL: &str = include_str!("../shaders/horizon.wgsl");
 
 /// How a horizon texture stores its texels, as the WGSL `HorizonEncoding` uniform field takes
-/// it: format 0 float (values as they are), 1 `Rg8Unorm` (`β/π + 0.5`, 0 open sky; distance
-/// over `distance_scale`).
+/// it: format 0 float (values as they are), 1 `Rg8Unorm` or `Bc5RgUnorm` (`β/π + 0.5`, 0 open
+/// sky; distance over `distance_scale`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct HorizonEncoding {
-    /// 0 float, 1 rg8.
+    /// 0 float, 1 rg8 or BC5.
     pub format: u32,
     /// World units of distance per unit of channel 1 (rg8).
     pub distance_scale: f32,
@@ -51,7 +51,7 @@ impl HorizonEncoding {
     /// The encoding of a horizon texture of `format` baked with `settings`.
     pub fn new(format: TextureFormat, settings: &HorizonSettings) -> HorizonEncoding {
         HorizonEncoding {
-            format: u32::from(format == TextureFormat::Rg8Unorm),
+            format: u32::from(format.is_unorm()),
             distance_scale: settings.distance_scale,
             open_sky_slope: settings.open_sky_slope,
             _pad: 0.0,

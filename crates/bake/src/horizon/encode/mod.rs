@@ -3,10 +3,11 @@
 
 pub(super) mod rg8;
 
-use hikage_bundle::TextureFormat;
+use hikage_bundle::{TextureData, TextureDesc, TextureFormat};
 use serde::{Deserialize, Serialize};
 
 use super::HorizonTexture;
+use crate::bc4::Side;
 
 /// Slope stored for a ray that has no sample (clamp mode, at the edge looking out). It is the
 /// most negative half float, so it survives every storage format (rg8 stores β = −90°).
@@ -27,6 +28,11 @@ pub enum HorizonFormat {
     /// 0 and 1, a step of 0.71°), channel 1 is `d / distance_scale`.
     #[cfg_attr(feature = "clap", value(name = "rg8"))]
     Rg8Unorm,
+    /// BC5 blocks, 1 byte per texel-direction (0.25× rg16f): rg8's two codes, each rounded
+    /// toward shadow (slope up, distance down) and block-encoded never past that side, so no
+    /// texel is lit that the exact bake shadows. Baked as rg32f, then encoded.
+    #[cfg_attr(feature = "clap", value(name = "bc5"))]
+    Bc5RgUnorm,
 }
 
 impl HorizonFormat {
@@ -36,8 +42,45 @@ impl HorizonFormat {
             HorizonFormat::Rg16Float => TextureFormat::Rg16Float,
             HorizonFormat::Rg32Float => TextureFormat::Rg32Float,
             HorizonFormat::Rg8Unorm => TextureFormat::Rg8Unorm,
+            HorizonFormat::Bc5RgUnorm => TextureFormat::Bc5RgUnorm,
         }
     }
+
+    /// The format texels are baked in before any block encoding: itself, or rg32f for BC5.
+    pub(crate) fn working(self) -> HorizonFormat {
+        match self {
+            HorizonFormat::Bc5RgUnorm => HorizonFormat::Rg32Float,
+            f => f,
+        }
+    }
+
+    /// Whether channel 1 is stored over a distance scale (the 8-bit formats).
+    pub(crate) fn scales_distance(self) -> bool {
+        matches!(self, HorizonFormat::Rg8Unorm | HorizonFormat::Bc5RgUnorm)
+    }
+}
+
+/// A texture baked in rg32f encoded as `format`'s blocks (BC5: the conservative codes of
+/// [`rg8::code_up`] and [`rg8::unorm_down`], block-encoded toward the same sides); any other
+/// format as it is.
+pub(super) fn finish(format: HorizonFormat, mut baked: HorizonTexture, distance_scale: f32) -> HorizonTexture {
+    if format != HorizonFormat::Bc5RgUnorm {
+        return baked;
+    }
+    let level = &baked.texture.levels[0];
+    let codes: Vec<u8> = level
+        .chunks_exact(8)
+        .flat_map(|t| {
+            let slope = f32::from_le_bytes([t[0], t[1], t[2], t[3]]);
+            let dist = f32::from_le_bytes([t[4], t[5], t[6], t[7]]);
+            [rg8::code_up(slope), rg8::unorm_down(dist / distance_scale)]
+        })
+        .collect();
+    let rg8 = TextureData { desc: baked.texture.desc.clone(), levels: vec![codes] };
+    let rg8 = TextureData { desc: TextureDesc { format: TextureFormat::Rg8Unorm, ..rg8.desc }, levels: rg8.levels };
+    baked.texture = crate::bc4::compress(&rg8, &[Side::Above, Side::Below]);
+    baked.distance_scale = distance_scale;
+    baked
 }
 
 /// Writes a row of texels (`tan β`, `d`) in `format` into `out` (exactly `s.len()` texels), in
@@ -91,7 +134,8 @@ pub(super) fn encode(format: HorizonFormat, slope: f32, dist: f32, distance_scal
             let (s, d) = f16_range(slope, dist);
             put_f16(out, half::f16::from_f32(s), half::f16::from_f32(d));
         }
-        HorizonFormat::Rg32Float => {
+        // BC5 is baked in rg32f (`working`), then encoded.
+        HorizonFormat::Rg32Float | HorizonFormat::Bc5RgUnorm => {
             // A slope past f32 (heights far apart over tiny texels) is vertical: it saturates.
             out[..4].copy_from_slice(&slope.clamp(-f32::MAX, f32::MAX).to_le_bytes());
             out[4..8].copy_from_slice(&dist.to_le_bytes());
@@ -113,9 +157,25 @@ fn put_f16(out: &mut [u8], slope: half::f16, dist: half::f16) {
     out[2..4].copy_from_slice(&dist.to_le_bytes());
 }
 
-/// Decodes texel `(k, row, col)` of a horizon texture to `(tan β, d)`.
+/// Decodes texel `(k, row, col)` of a horizon texture to `(tan β, d)` (a BC5 texel as its block
+/// decodes, rounded to 8 bits).
 pub fn decode(texture: &HorizonTexture, k: usize, row: usize, col: usize) -> (f32, f32) {
     let desc = &texture.texture.desc;
+    if desc.format.is_block_compressed() {
+        let (bw, bh) = ((desc.width as usize).div_ceil(4), (desc.height as usize).div_ceil(4));
+        let at = ((k * bh + row / 4) * bw + col / 4) * 16;
+        let block = &texture.texture.levels[0][at..at + 16];
+        let i = row % 4 * 4 + col % 4;
+        let half = |h: usize| hikage_bundle::bc::decode_block(block[8 * h..8 * h + 8].try_into().expect("8 bytes"))[i];
+        let (a, b) = (half(0).round() / 255.0, half(1).round() / 255.0);
+        return hikage_bundle::manifest::decode_horizon_texel(
+            desc.format,
+            a,
+            b,
+            texture.distance_scale,
+            OPEN_SKY_SLOPE,
+        );
+    }
     let tb = desc.format.texel_bytes();
     let i = ((k * desc.height as usize + row) * desc.width as usize + col) * tb;
     let bytes = &texture.texture.levels[0][i..i + tb];

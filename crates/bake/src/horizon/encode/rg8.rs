@@ -24,6 +24,21 @@ fn round_byte(y: f32) -> u8 {
     (t + (y - t as f32 >= 0.5) as u32) as u8
 }
 
+/// The smallest 8-bit code whose slope is not below `tan β`: `⌈255 (β / π + 0.5)⌉`, and 0 (open
+/// sky) for the open-sky slope. A stored code never lets more light in than the slope.
+pub(crate) fn code_up(slope: f32) -> u8 {
+    if slope <= super::OPEN_SKY_SLOPE {
+        return 0;
+    }
+    let x = ((slope as f64).atan() / std::f64::consts::PI + 0.5) * 255.0;
+    x.ceil().clamp(0.0, 255.0) as u8
+}
+
+/// `x` in [0, 1] as an 8-bit unorm rounded down (never above `x`).
+pub(crate) fn unorm_down(x: f32) -> u8 {
+    (x.clamp(0.0, 1.0) as f64 * 255.0).floor() as u8
+}
+
 /// The 8-bit code of slope `tan β` by its definition, `unorm(β / π + 0.5)`.
 fn by_formula(slope: f32) -> u8 {
     unorm(slope.atan() / std::f32::consts::PI + 0.5)

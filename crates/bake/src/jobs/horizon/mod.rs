@@ -55,7 +55,8 @@ pub struct HorizonOptions {
     /// Texels per ray traced exactly before the line sweep takes over, 0–64.
     #[cfg_attr(feature = "clap", arg(long, default_value_t = HorizonOptions::default().near_field))]
     pub near_field: u32,
-    /// Storage of the horizon texture: rg16f, rg32f, or rg8 (the paper's memory; β step 0.71°).
+    /// Storage of the horizon texture: rg16f, rg32f, rg8 (the paper's memory; β step 0.71°), or
+    /// bc5 (a quarter of rg16f; rounded toward shadow, never lighter than the exact bake).
     #[cfg_attr(feature = "clap", arg(long, value_enum, default_value_t = HorizonOptions::default().format))]
     pub format: HorizonFormat,
     /// Also write the ambient-occlusion map derived from the horizons.
