@@ -13,7 +13,7 @@ use hikage_runtime::horizon::{Sun, TerrainFrame, TerrainShadows};
 use hikage_runtime::{CpuBundle, DrawOptions, GpuBundle, wgpu};
 use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT, Headless, VISIBILITY_FORMAT};
 
-use crate::util::{gpu_with, shared_bundle};
+use crate::util::{compute_pipeline, gpu_with, shared_bundle, storage_entry};
 
 fn bundle() -> PathBuf {
     shared_bundle(
@@ -64,10 +64,6 @@ fn load_texels(
             out[(id.z * {h}u + id.y) * {w}u + id.x] = {load}.xy;
         }}"
     );
-    let module = g.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("texel readback"),
-        source: wgpu::ShaderSource::Wgsl(shader.into()),
-    });
     let layout = g.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: None,
         entries: &[
@@ -81,31 +77,10 @@ fn load_texels(
                 },
                 count: None,
             },
-            wgpu::BindGroupLayoutEntry {
-                binding: 1,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Storage { read_only: false },
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            },
+            storage_entry(1),
         ],
     });
-    let pipeline_layout = g.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: None,
-        bind_group_layouts: &[Some(&layout)],
-        immediate_size: 0,
-    });
-    let pipeline = g.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: None,
-        layout: Some(&pipeline_layout),
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
+    let pipeline = compute_pipeline(g, &shader, &[&layout]);
     let out = g.buffer(8 * (w * h * slices) as u64, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC, None);
     let bind = g.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: None,

@@ -16,7 +16,7 @@ use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT, Headless, VISIBILITY_F
 use hikage_scenes::horizon_sphere::{AnalyticSphere, shadowed_fraction};
 use hikage_scenes::raster::{interpolate, rasterise};
 
-use crate::util::{gpu, shared_bundle};
+use crate::util::{compute_pipeline, gpu, shared_bundle, storage_entry};
 
 /// The default pipeline's horizon and curvature jobs.
 fn bundle() -> PathBuf {
@@ -315,37 +315,11 @@ fn clamped_terrain_is_sampled_without_wrap() {
         }}",
         terrain.wgsl()
     );
-    let module = g.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("edge test"),
-        source: wgpu::ShaderSource::Wgsl(shader.into()),
-    });
     let out = g.buffer(4 * h as u64, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC, None);
-    let out_layout = g.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: None,
-        entries: &[wgpu::BindGroupLayoutEntry {
-            binding: 0,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only: false },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        }],
-    });
-    let layout = g.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: None,
-        bind_group_layouts: &[Some(terrain.layout()), Some(&out_layout)],
-        immediate_size: 0,
-    });
-    let pipeline = g.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: None,
-        layout: Some(&layout),
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
+    let out_layout = g
+        .device
+        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: None, entries: &[storage_entry(0)] });
+    let pipeline = compute_pipeline(&g, &shader, &[terrain.layout(), &out_layout]);
     let out_group = g.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: None,
         layout: &out_layout,

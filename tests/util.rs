@@ -235,3 +235,45 @@ pub fn counts(line: &str) -> (usize, usize) {
     };
     (after("baked"), after("from the cache"))
 }
+
+/// A compute pipeline of `shader`'s `main`, its bind groups 0, 1, … laid out by `layouts`.
+pub fn compute_pipeline(
+    g: &hikage_scenes::headless::Headless,
+    shader: &str,
+    layouts: &[&hikage_runtime::wgpu::BindGroupLayout],
+) -> hikage_runtime::wgpu::ComputePipeline {
+    use hikage_runtime::wgpu;
+    let module = g.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("test compute"),
+        source: wgpu::ShaderSource::Wgsl(shader.into()),
+    });
+    let groups: Vec<Option<&wgpu::BindGroupLayout>> = layouts.iter().map(|&l| Some(l)).collect();
+    let layout = g.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: None,
+        bind_group_layouts: &groups,
+        immediate_size: 0,
+    });
+    g.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: None,
+        layout: Some(&layout),
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: Default::default(),
+        cache: None,
+    })
+}
+
+/// A compute shader's read-write storage buffer at `binding`.
+pub fn storage_entry(binding: u32) -> hikage_runtime::wgpu::BindGroupLayoutEntry {
+    use hikage_runtime::wgpu;
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: false },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
