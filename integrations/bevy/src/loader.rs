@@ -90,9 +90,16 @@ impl AssetLoader for BundleLoader {
             let bytes = context.read_asset_bytes(payload_path).await.map_err(|e| bad(e.to_string()))?;
             check(asset, &bytes, &limits).map_err(&bad)?;
             match &asset.payload {
-                Payload::Texture(_) => {
+                Payload::Texture(desc) => {
+                    let decoded;
+                    let ktx2 = if desc.format.is_block_compressed() {
+                        decoded = decode_blocks(&bytes, &asset.file, &limits).map_err(&bad)?;
+                        &decoded
+                    } else {
+                        &bytes
+                    };
                     let image = Image::from_buffer(
-                        &bytes,
+                        ktx2,
                         ImageType::Extension("ktx2"),
                         CompressedImageFormats::NONE,
                         false,
@@ -129,6 +136,16 @@ impl AssetLoader for BundleLoader {
     fn extensions(&self) -> &[&str] {
         &["ron"]
     }
+}
+
+/// A BC4/BC5 texture's KTX2 file as the `R8Unorm`/`Rg8Unorm` KTX2 file it decodes to, for
+/// Bevy's reader: the blocks are decoded on the CPU (2× or 4× the GPU memory of the blocks),
+/// so every device Bevy runs on can sample them, 3D ones included, through the same materials.
+fn decode_blocks(bytes: &[u8], file: &str, limits: &Limits) -> Result<Vec<u8>, String> {
+    let texture = hikage_bundle::ktx2_file::decode(bytes, Path::new(file), limits).map_err(|e| e.to_string())?;
+    let mut decoded = texture.decoded().into_owned();
+    decoded.desc.supercompression = hikage_bundle::Supercompression::None;
+    hikage_bundle::ktx2_file::encode(&decoded, hikage_bundle::GENERATOR).map_err(|e| e.to_string())
 }
 
 /// The sampler a texture asset wants, as `hikage-runtime` samples it: a horizon map filters

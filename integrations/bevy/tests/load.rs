@@ -49,6 +49,22 @@ fn write_bundle(dir: &Path) -> (Vec<f32>, Vec<StrandPoint>) {
         TextureData::from_f32(desc(TextureFormat::R32Float, TextureDimension::D2, (8, 8, 1), &["height"]), &flat)
             .unwrap();
     w.put_texture("t.plane", Settings::Generic, "x", &plane).unwrap();
+    // A BC5 volume of 8 × 4 texels × 2 slices: blocks whose red half is flat at 10 × the block's
+    // number and whose green half holds r0 = 200, r1 = 100 with every texel at index 2
+    // ((6·200 + 100)/7 ≈ 185.7, decoded to 186).
+    let blocks: Vec<u8> = (0..4u8)
+        .flat_map(|b| {
+            let mut g = [200u8, 100, 0, 0, 0, 0, 0, 0];
+            let bits = (0..16).fold(0u64, |acc, i| acc | 2 << (3 * i));
+            g[2..].copy_from_slice(&bits.to_le_bytes()[..6]);
+            [[b * 10, b * 10, 0, 0, 0, 0, 0, 0], g].concat()
+        })
+        .collect();
+    let bc5 = TextureData {
+        desc: desc(TextureFormat::Bc5RgUnorm, TextureDimension::D3, (8, 4, 2), &["slope", "distance"]),
+        levels: vec![blocks],
+    };
+    w.put_texture("t.blocks", Settings::Generic, "x", &bc5).unwrap();
     let mut tri = MeshData::new(3);
     tri.push_f32("position", 3, &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]).unwrap();
     tri.push_f32("uv", 2, &[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]).unwrap();
@@ -118,7 +134,7 @@ fn a_bundle_loads_as_labelled_images_and_meshes() {
     assert!(matches!(state, LoadState::Loaded), "{state:?}");
     let world = app.world();
     let bundle = world.resource::<Assets<HikageBundle>>().get(&handle).unwrap();
-    assert_eq!(bundle.image_ids, ["t.plane", "t.volume"]);
+    assert_eq!(bundle.image_ids, ["t.blocks", "t.plane", "t.volume"]);
     assert_eq!(bundle.mesh_ids, ["h.strips", "m.tri"]);
     assert!(bundle.asset("h.strips").unwrap().settings.strands().is_some());
     // The labelled path names the same image.
@@ -133,6 +149,16 @@ fn a_bundle_loads_as_labelled_images_and_meshes() {
     let texels: Vec<f32> =
         image.data.as_ref().unwrap().chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
     assert_eq!(texels, volume, "the volume's texels, slice by slice");
+    // Block-compressed textures arrive decoded, in the 8-bit format of the same channels.
+    let blocks = images.get(bundle.image("t.blocks").unwrap()).unwrap();
+    let d = &blocks.texture_descriptor;
+    assert_eq!(format!("{:?} {:?}", d.dimension, d.format), "D3 Rg8Unorm");
+    assert_eq!((d.size.width, d.size.height, d.size.depth_or_array_layers), (8, 4, 2));
+    let data = blocks.data.as_ref().unwrap();
+    for (i, texel) in data.chunks_exact(2).enumerate() {
+        let (x, y, z) = (i % 8, i / 8 % 4, i / 32);
+        assert_eq!(texel, [(z * 2 + x / 4) as u8 * 10, 186], "texel ({x}, {y}, {z})");
+    }
     let plane = images.get(bundle.image("t.plane").unwrap()).unwrap();
     assert_eq!(format!("{:?}", plane.texture_descriptor.dimension), "D2");
 
