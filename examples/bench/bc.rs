@@ -1,6 +1,7 @@
-//! Block compression's accuracy cost, measured before the formats are wired into bundles
-//! (issue 31): relief depth maps through BC4 and horizon angles through BC5, each with the plain
-//! (nearest) encoder and the conservative one of `hikage_bake::bc4`, against the maps as baked.
+//! Block compression's accuracy cost (issue 31): relief depth maps through BC4 and horizon
+//! angles through BC5, each with the plain (nearest) encoder and the conservative one the
+//! `Bc4RUnorm` and `Bc5RgUnorm` formats bake with (`hikage_bake::bc4`), against the maps as
+//! baked.
 
 use hikage_bake::bc4::{self, Side};
 use hikage_bake::heightfield::{Heightfield, LoadOptions, load_samples};

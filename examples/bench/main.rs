@@ -104,7 +104,7 @@ fn main() {
     if wanted("fourier") {
         fourier::run();
     }
-    if wanted("bc") {
+    if wanted("bc") && !wanted("size") {
         bc::run();
     }
     if args.iter().any(|a| a == "scale") {
