@@ -76,8 +76,10 @@ pub(super) fn finish(format: HorizonFormat, mut baked: HorizonTexture, distance_
             [rg8::code_up(slope), rg8::unorm_down(dist / distance_scale)]
         })
         .collect();
-    let rg8 = TextureData { desc: baked.texture.desc.clone(), levels: vec![codes] };
-    let rg8 = TextureData { desc: TextureDesc { format: TextureFormat::Rg8Unorm, ..rg8.desc }, levels: rg8.levels };
+    let rg8 = TextureData {
+        desc: TextureDesc { format: TextureFormat::Rg8Unorm, ..baked.texture.desc.clone() },
+        levels: vec![codes],
+    };
     baked.texture = crate::bc4::compress(&rg8, &[Side::Above, Side::Below]);
     baked.distance_scale = distance_scale;
     baked
