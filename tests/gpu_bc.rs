@@ -98,23 +98,16 @@ fn load_texels(
 }
 
 /// The blocks of `tex` decoded on the CPU, unrounded (as the format defines them), in units
-/// of 1: `[slice][row][col][channel]` for every `stride`-th slice.
+/// of 1: `[slice][row][col]`, channels 0 and 1, for every `stride`-th slice.
 fn exact_texels(tex: &TextureData, stride: u32) -> Vec<[f32; 2]> {
     let d = &tex.desc;
-    let (w, h, channels) = (d.width as usize, d.height as usize, d.format.channels());
-    let (bw, bh) = (w.div_ceil(4), h.div_ceil(4));
-    let block_bytes = d.format.block_bytes();
     let mut out = Vec::new();
     for slice in (0..d.slices() as usize).step_by(stride as usize) {
-        for row in 0..h {
-            for col in 0..w {
-                let at = ((slice * bh + row / 4) * bw + col / 4) * block_bytes;
-                let i = row % 4 * 4 + col % 4;
-                let half = |c: usize| {
-                    let block = tex.levels[0][at + 8 * c..at + 8 * c + 8].try_into().unwrap();
-                    hikage_bundle::bc::decode_block(block)[i] / 255.0
-                };
-                out.push([half(0), if channels == 2 { half(1) } else { 0.0 }]);
+        for row in 0..d.height as usize {
+            for col in 0..d.width as usize {
+                let texel =
+                    hikage_bundle::bc::decode_texel(d.format, &tex.levels[0], (d.width, d.height), (slice, row, col));
+                out.push(texel.map(|v| v / 255.0));
             }
         }
     }

@@ -31,6 +31,21 @@ pub fn decode_block(block: &[u8; 8]) -> [f32; 16] {
     std::array::from_fn(|i| p[((bits >> (3 * i)) & 7) as usize])
 }
 
+/// The values of one texel of a BC4 or BC5 level of `width` × `height` texels (`blocks`, its
+/// bytes), unrounded, in units of 1/255: channel 0, and channel 1 for BC5 (0 for BC4).
+pub fn decode_texel(
+    format: TextureFormat,
+    blocks: &[u8],
+    (width, height): (u32, u32),
+    (slice, row, col): (usize, usize, usize),
+) -> [f32; 2] {
+    let (bw, bh) = ((width as usize).div_ceil(4), (height as usize).div_ceil(4));
+    let at = ((slice * bh + row / 4) * bw + col / 4) * format.block_bytes();
+    let i = row % 4 * 4 + col % 4;
+    let half = |c: usize| decode_block(blocks[at + 8 * c..at + 8 * c + 8].try_into().expect("8 bytes"))[i];
+    [half(0), if format.channels() == 2 { half(1) } else { 0.0 }]
+}
+
 /// Level `level` of a BC4 or BC5 texture (`blocks`, exactly [`TextureDesc::level_bytes`] long)
 /// decoded to `R8Unorm` or `Rg8Unorm` texels, each value rounded to the nearest byte. Rounding
 /// keeps a conservative encoding's side: a value never above (or below) an integer stays so.
@@ -82,7 +97,7 @@ mod tests {
     }
 
     /// A 6 × 5 BC5 level (partial blocks at the right and bottom) decodes each channel from
-    /// its own half, in place.
+    /// its own half, in place, whole or a texel at a time.
     #[test]
     fn levels_decode_blocks_into_place() {
         let desc = TextureDesc {
@@ -107,7 +122,10 @@ mod tests {
         for y in 0..5 {
             for x in 0..6 {
                 let b = (y / 4 * 2 + x / 4) as u8;
-                assert_eq!(&texels[(y * 6 + x) * 2..][..2], &[b * 10, 255 - b * 10], "texel ({x}, {y})");
+                let want = [b * 10, 255 - b * 10];
+                assert_eq!(&texels[(y * 6 + x) * 2..][..2], &want, "texel ({x}, {y})");
+                let one = decode_texel(desc.format, &blocks, (6, 5), (0, y, x));
+                assert_eq!(one, want.map(f32::from), "texel ({x}, {y}) alone");
             }
         }
     }

@@ -209,7 +209,14 @@ fn unsupported(asset: &Asset, message: String) -> RuntimeError {
     RuntimeError::Unsupported { asset: asset.id.clone(), message }
 }
 
-fn check_texture(device: &wgpu::Device, asset: &Asset, d: &TextureDesc) -> Result<(), RuntimeError> {
+/// `d`'s sizes against the device's limits, and whether the device can sample `format` (the
+/// format it will hold the texture in).
+fn check_texture(
+    device: &wgpu::Device,
+    asset: &Asset,
+    d: &TextureDesc,
+    format: TextureFormat,
+) -> Result<(), RuntimeError> {
     let limits = device.limits();
     let (max_dim, what) = match d.dimension {
         TextureDimension::D3 => (limits.max_texture_dimension_3d, "3D"),
@@ -225,7 +232,7 @@ fn check_texture(device: &wgpu::Device, asset: &Asset, d: &TextureDesc) -> Resul
             format!("{} layers is above the device limit of {}", d.layers, limits.max_texture_array_layers),
         ));
     }
-    let format = wgpu_format(device_format(device.features(), d));
+    let format = wgpu_format(format);
     let needed = format.guaranteed_format_features(device.features());
     if !needed.allowed_usages.contains(wgpu::TextureUsages::TEXTURE_BINDING) {
         return Err(unsupported(asset, format!("format {format:?} cannot be sampled on this device")));
@@ -239,12 +246,9 @@ fn upload_texture(
     asset: &Asset,
     tex: &TextureData,
 ) -> Result<GpuTexture, RuntimeError> {
-    check_texture(device, asset, &tex.desc)?;
-    let tex = if device_format(device.features(), &tex.desc) == tex.desc.format {
-        std::borrow::Cow::Borrowed(tex)
-    } else {
-        tex.decoded()
-    };
+    let on_device = device_format(device.features(), &tex.desc);
+    check_texture(device, asset, &tex.desc, on_device)?;
+    let tex = if on_device == tex.desc.format { std::borrow::Cow::Borrowed(tex) } else { tex.decoded() };
     let d = &tex.desc;
     let (dimension, depth_or_array_layers) = match d.dimension {
         TextureDimension::D2 => (wgpu::TextureDimension::D2, 1),

@@ -116,16 +116,17 @@ pub fn bake(
     progress(done.fetch_add(1, Ordering::Relaxed) + 1, d as u64);
     let desc = TextureDesc { width: hf.width, height: hf.height, ..texture_desc(params) };
     let baked = HorizonTexture { texture: TextureData { desc, levels: vec![bytes] }, distance_scale };
-    Ok(encode::finish(params.format, baked, distance_scale))
+    Ok(encode::finish(params.format, baked))
 }
 
 /// For the 8-bit formats, the distance a stored 1 stands for: the largest any horizon of a `map`-sized
 /// field can have; 1 for float formats.
 fn distance_scale(params: &HorizonParams, (w, h): (usize, usize), (sx, sy): (f32, f32)) -> f32 {
     let diag = ((w as f64 * sx as f64).powi(2) + (h as f64 * sy as f64).powi(2)).sqrt();
-    match params.format.scales_distance() {
-        true => params.max_distance.map_or(diag * 2.0, |m| m as f64).max(1e-6) as f32,
-        false => 1.0,
+    if params.format.scales_distance() {
+        params.max_distance.map_or(diag * 2.0, |m| m as f64).max(1e-6) as f32
+    } else {
+        1.0
     }
 }
 

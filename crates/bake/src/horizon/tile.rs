@@ -148,7 +148,7 @@ pub fn bake_tile(
     });
     let desc = TextureDesc { width: tw, height: th, ..texture_desc(params) };
     let baked = HorizonTexture { texture: TextureData { desc, levels: vec![bytes] }, distance_scale };
-    Ok(super::encode::finish(format, baked, distance_scale))
+    Ok(super::encode::finish(format, baked))
 }
 
 /// Whether, along one axis of a `map`-texel map, the window (start, length) holds the tile

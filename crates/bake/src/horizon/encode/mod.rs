@@ -3,7 +3,9 @@
 
 pub(super) mod rg8;
 
-use hikage_bundle::{TextureData, TextureDesc, TextureFormat};
+use hikage_bundle::manifest::decode_horizon_texel;
+use hikage_bundle::{TextureData, TextureDesc, TextureFormat, bc};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::HorizonTexture;
@@ -63,14 +65,14 @@ impl HorizonFormat {
 /// A texture baked in rg32f encoded as `format`'s blocks (BC5: the conservative codes of
 /// [`rg8::code_up`] and [`rg8::unorm_down`], block-encoded toward the same sides); any other
 /// format as it is.
-pub(super) fn finish(format: HorizonFormat, mut baked: HorizonTexture, distance_scale: f32) -> HorizonTexture {
+pub(super) fn finish(format: HorizonFormat, mut baked: HorizonTexture) -> HorizonTexture {
     if format != HorizonFormat::Bc5RgUnorm {
         return baked;
     }
-    let level = &baked.texture.levels[0];
-    let codes: Vec<u8> = level
-        .chunks_exact(8)
-        .flat_map(|t| {
+    let distance_scale = baked.distance_scale;
+    let codes: Vec<u8> = baked.texture.levels[0]
+        .par_chunks_exact(8)
+        .flat_map_iter(|t| {
             let slope = f32::from_le_bytes([t[0], t[1], t[2], t[3]]);
             let dist = f32::from_le_bytes([t[4], t[5], t[6], t[7]]);
             [rg8::code_up(slope), rg8::unorm_down(dist / distance_scale)]
@@ -81,7 +83,6 @@ pub(super) fn finish(format: HorizonFormat, mut baked: HorizonTexture, distance_
         levels: vec![codes],
     };
     baked.texture = crate::bc4::compress(&rg8, &[Side::Above, Side::Below]);
-    baked.distance_scale = distance_scale;
     baked
 }
 
@@ -164,23 +165,14 @@ fn put_f16(out: &mut [u8], slope: half::f16, dist: half::f16) {
 pub fn decode(texture: &HorizonTexture, k: usize, row: usize, col: usize) -> (f32, f32) {
     let desc = &texture.texture.desc;
     if desc.format.is_block_compressed() {
-        let (bw, bh) = ((desc.width as usize).div_ceil(4), (desc.height as usize).div_ceil(4));
-        let at = ((k * bh + row / 4) * bw + col / 4) * 16;
-        let block = &texture.texture.levels[0][at..at + 16];
-        let i = row % 4 * 4 + col % 4;
-        let half = |h: usize| hikage_bundle::bc::decode_block(block[8 * h..8 * h + 8].try_into().expect("8 bytes"))[i];
-        let (a, b) = (half(0).round() / 255.0, half(1).round() / 255.0);
-        return hikage_bundle::manifest::decode_horizon_texel(
-            desc.format,
-            a,
-            b,
-            texture.distance_scale,
-            OPEN_SKY_SLOPE,
-        );
+        let levels = &texture.texture.levels[0];
+        let [a, b] = bc::decode_texel(desc.format, levels, (desc.width, desc.height), (k, row, col));
+        let (a, b) = (a.round() / 255.0, b.round() / 255.0);
+        return decode_horizon_texel(desc.format, a, b, texture.distance_scale, OPEN_SKY_SLOPE);
     }
     let tb = desc.format.texel_bytes();
     let i = ((k * desc.height as usize + row) * desc.width as usize + col) * tb;
     let bytes = &texture.texture.levels[0][i..i + tb];
     let (a, b) = (desc.format.decode_channel(bytes, 0), desc.format.decode_channel(bytes, 1));
-    hikage_bundle::manifest::decode_horizon_texel(desc.format, a, b, texture.distance_scale, OPEN_SKY_SLOPE)
+    decode_horizon_texel(desc.format, a, b, texture.distance_scale, OPEN_SKY_SLOPE)
 }
