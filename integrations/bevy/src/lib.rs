@@ -98,8 +98,13 @@ impl Plugin for HikagePlugin {
 
 /// Bundles as assets only: the [`HikageBundle`] asset and its loader (`.ron` manifests named
 /// `bundle.ron`), and Bevy's [`Image`] and [`Mesh`] assets if no other plugin has. For apps
-/// without a renderer (asset processing, servers); [`HikagePlugin`] includes it.
+/// without a renderer (asset processing, servers); [`HikagePlugin`] includes it. With a render
+/// device, BC4/BC5 textures stay blocks where the device samples them (see [`BundleLoader`]).
 pub struct HikageAssetsPlugin;
+
+/// The registered loader, kept to tell it the render device once the device exists.
+#[derive(bevy_ecs::prelude::Resource)]
+struct RegisteredLoader(BundleLoader);
 
 impl Plugin for HikageAssetsPlugin {
     fn build(&self, app: &mut App) {
@@ -111,7 +116,16 @@ impl Plugin for HikageAssetsPlugin {
         if !app.world().contains_resource::<Assets<Mesh>>() {
             app.init_asset::<Mesh>();
         }
-        app.init_asset::<HikageBundle>().register_asset_loader(BundleLoader);
+        let loader = BundleLoader::default();
+        app.insert_resource(RegisteredLoader(loader.clone()));
+        app.init_asset::<HikageBundle>().register_asset_loader(loader);
+    }
+
+    fn finish(&self, app: &mut App) {
+        // The render plugin has made its device by now (its `finish` runs first).
+        if let Some(device) = app.world().get_resource::<bevy_render::renderer::RenderDevice>() {
+            app.world().resource::<RegisteredLoader>().0.set_device(device.features());
+        }
     }
 }
 

@@ -18,8 +18,26 @@ use hikage_bundle::{
 use crate::HikageBundle;
 
 /// Loads a hikage bundle's `bundle.ron` (registered by [`crate::HikagePlugin`] for `.ron`).
-#[derive(Debug, Default, TypePath)]
-pub struct BundleLoader;
+///
+/// Block-compressed textures (BC4, BC5) stay blocks on a render device that can sample them
+/// (`hikage_runtime::device_format`), and are decoded to `R8Unorm`/`Rg8Unorm` on the CPU
+/// otherwise, or where no render device exists yet.
+#[derive(Debug, Default, Clone, TypePath)]
+pub struct BundleLoader {
+    /// The render device's features, once [`crate::HikageAssetsPlugin`] has seen the device.
+    features: Arc<std::sync::OnceLock<hikage_runtime::wgpu::Features>>,
+}
+
+impl BundleLoader {
+    /// Records the render device's features (the first call wins).
+    pub(crate) fn set_device(&self, features: hikage_runtime::wgpu::Features) {
+        let _ = self.features.set(features);
+    }
+
+    fn device_features(&self) -> hikage_runtime::wgpu::Features {
+        self.features.get().copied().unwrap_or_else(hikage_runtime::wgpu::Features::empty)
+    }
+}
 
 /// Why a bundle did not load: the manifest, or one asset, named.
 #[derive(Debug, thiserror::Error)]
@@ -92,16 +110,18 @@ impl AssetLoader for BundleLoader {
             match &asset.payload {
                 Payload::Texture(desc) => {
                     let decoded;
-                    let ktx2 = if desc.format.is_block_compressed() {
-                        decoded = decode_blocks(&bytes, &asset.file, &limits).map_err(&bad)?;
-                        &decoded
+                    let (ktx2, formats) = if !desc.format.is_block_compressed() {
+                        (&bytes, CompressedImageFormats::NONE)
+                    } else if hikage_runtime::device_format(self.device_features(), desc) == desc.format {
+                        (&bytes, CompressedImageFormats::BC)
                     } else {
-                        &bytes
+                        decoded = decode_blocks(&bytes, &asset.file, &limits).map_err(&bad)?;
+                        (&decoded, CompressedImageFormats::NONE)
                     };
                     let image = Image::from_buffer(
                         ktx2,
                         ImageType::Extension("ktx2"),
-                        CompressedImageFormats::NONE,
+                        formats,
                         false,
                         sampler(&asset.settings),
                         RenderAssetUsages::default(),
@@ -139,8 +159,8 @@ impl AssetLoader for BundleLoader {
 }
 
 /// A BC4/BC5 texture's KTX2 file as the `R8Unorm`/`Rg8Unorm` KTX2 file it decodes to, for
-/// Bevy's reader: the blocks are decoded on the CPU (2× or 4× the GPU memory of the blocks),
-/// so every device Bevy runs on can sample them, 3D ones included, through the same materials.
+/// Bevy's reader on a device that cannot sample the blocks: decoded on the CPU (2× or 4× the GPU
+/// memory of the blocks), read by the same materials.
 fn decode_blocks(bytes: &[u8], file: &str, limits: &Limits) -> Result<Vec<u8>, String> {
     let texture = hikage_bundle::ktx2_file::decode(bytes, Path::new(file), limits).map_err(|e| e.to_string())?;
     let mut decoded = texture.decoded().into_owned();

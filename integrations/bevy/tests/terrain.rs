@@ -1,12 +1,13 @@
 //! The terrain material rendered by Bevy on a GPU (lavapipe in CI) against hikage-runtime's CPU
 //! reference of the same horizon test: the lit/shadow mask seen from above agrees on ≥ 98% of
-//! the pixels, as the raw-wgpu terrain component does.
+//! the pixels, as the raw-wgpu terrain component does, for rg16f and BC5 horizons.
 
 #[path = "../examples/common/mod.rs"]
 mod common;
 
 use bevy::light::{NotShadowCaster, SunDisk};
 use bevy::prelude::*;
+use bevy::render::render_resource::TextureFormat;
 use hikage_bevy::{HikageBundle, HorizonTerrain, TerrainMaterial};
 use hikage_runtime::CpuBundle;
 use hikage_runtime::glam;
@@ -18,13 +19,29 @@ const SIZE: u32 = 512;
 
 #[test]
 fn terrain_mask_matches_the_cpu_reference() {
-    if !gpu_or_skip("terrain_mask_matches_the_cpu_reference") {
-        return;
+    if gpu_or_skip("terrain_mask_matches_the_cpu_reference") {
+        terrain_mask("terrain", "Rg16Float", TextureFormat::Rg16Float);
     }
+}
+
+/// A BC5 horizon stays blocks on a device that samples them (lavapipe does, 3D included) and
+/// shadows as the CPU reference of its decoded texels says.
+#[test]
+fn bc5_terrain_keeps_its_blocks_and_matches_the_cpu_reference() {
+    if gpu_or_skip("bc5_terrain_keeps_its_blocks_and_matches_the_cpu_reference") {
+        terrain_mask("terrain_bc5", "Bc5RgUnorm", TextureFormat::Bc5RgUnorm);
+    }
+}
+
+/// Renders the default terrain's horizon baked as `format`, checks the image Bevy holds is
+/// `on_device`, and compares the lit mask with the CPU reference.
+fn terrain_mask(name: &str, format: &str, on_device: TextureFormat) {
     let dir = bake(
-        "terrain",
-        r#"Horizon(id: "terrain", input: "data/terrain.png", texel_size: (80, 60), height_scale: 1500,
-                   directions: 32, edge: Clamp, ao: true)"#,
+        name,
+        &format!(
+            r#"Horizon(id: "terrain", input: "data/terrain.png", texel_size: (80, 60), height_scale: 1500,
+                   directions: 32, edge: Clamp, ao: true, format: {format})"#
+        ),
     );
     let (w, h, sx, sy) = (512.0f32, 512.0f32, 80.0f32, 60.0f32);
     let (ex, ez) = (w * sx / 2.0, h * sy / 2.0);
@@ -40,11 +57,14 @@ fn terrain_mask_matches_the_cpu_reference() {
         MaskScene::orthographic(2.0 * ex, 2.0 * ez, 10_000.0),
     );
     let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
-    app.world().spawn((HorizonTerrain::new(bundle, "terrain.horizon"), NotShadowCaster));
+    app.world().spawn((HorizonTerrain::new(bundle.clone(), "terrain.horizon"), NotShadowCaster));
     let built =
         app.update_until(600, |world| world.query::<&MeshMaterial3d<TerrainMaterial>>().iter(world).next().is_some());
     assert!(built, "the terrain was not built");
-    let shadowed = app.capture(&target);
+    let shadowed = app.capture_settled(&target);
+    let world = app.world();
+    let handle = world.resource::<Assets<HikageBundle>>().get(&bundle).unwrap().image("terrain.horizon").unwrap();
+    assert_eq!(world.resource::<Assets<Image>>().get(handle).unwrap().texture_descriptor.format, on_device);
     let material = app.world().query::<&MeshMaterial3d<TerrainMaterial>>().single(app.world()).unwrap().0.clone();
     app.world().resource_mut::<Assets<TerrainMaterial>>().get_mut(&material).unwrap().extension.uniform.horizon = 0;
     let open = app.capture(&target);
@@ -71,7 +91,7 @@ fn terrain_mask_matches_the_cpu_reference() {
     }
     let share = agree as f64 / checked as f64;
     eprintln!(
-        "bevy terrain: {checked} pixels, {:.1}% lit; the Bevy render agrees with the CPU reference on {:.2}%",
+        "bevy terrain ({format}): {checked} pixels, {:.1}% lit; the Bevy render agrees with the CPU reference on {:.2}%",
         100.0 * lit as f64 / checked as f64,
         100.0 * share
     );

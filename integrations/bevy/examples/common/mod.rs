@@ -194,6 +194,20 @@ impl Headless {
         self.capture_bytes(target).into_iter().map(|p| [linear(p[0]), linear(p[1]), linear(p[2])]).collect()
     }
 
+    /// [`capture`](Self::capture) until two frames in a row agree: the first frames after a
+    /// material appears may still miss the textures it waits for on the render side.
+    pub fn capture_settled(&mut self, target: &Handle<Image>) -> Vec<[f32; 3]> {
+        let mut last = self.capture(target);
+        for _ in 0..10 {
+            let next = self.capture(target);
+            if next == last {
+                return next;
+            }
+            last = next;
+        }
+        panic!("the frame did not settle in 10 captures");
+    }
+
     /// Renders frames until image `image` (with `COPY_SRC` usage) is read back: its bytes as
     /// stored, rows unpadded.
     pub fn read_image(&mut self, image: &Handle<Image>) -> Vec<u8> {
