@@ -553,3 +553,73 @@ fn validate_pipeline_checks_grids_a_block_at_a_time() {
         }
     }
 }
+
+/// A 16384² 8-bit TIFF stored as one 16384² tile (or one strip) of 256 MiB — a decompression
+/// bomb, whatever its compression, for any reader that decodes a chunk whole — is refused from
+/// its header, naming the file and the chunk, in little memory.
+#[test]
+fn tiff_chunks_too_large_to_decode_are_refused_from_the_header() {
+    let dir = Dir::new("hostile_tiff_chunk");
+    let (side, data_at) = (16384u32, 4096u32);
+    // (tag, type, count, value): SHORT 3, LONG 4; entries in ascending tag order.
+    let ifd = |layout: &[(u16, u16, u32, u32)]| {
+        let mut entries = vec![(256, 4, 1, side), (257, 4, 1, side), (258, 3, 1, 8), (259, 3, 1, 1), (262, 3, 1, 1)];
+        entries.extend_from_slice(layout);
+        entries.push((339, 3, 1, 1));
+        entries.sort_by_key(|e| e.0);
+        let mut t = b"II*\0\x08\0\0\0".to_vec();
+        t.extend_from_slice(&(entries.len() as u16).to_le_bytes());
+        for (tag, ty, count, value) in entries {
+            for bytes in [&tag.to_le_bytes()[..], &ty.to_le_bytes(), &count.to_le_bytes(), &value.to_le_bytes()] {
+                t.extend_from_slice(bytes);
+            }
+        }
+        t.extend_from_slice(&0u32.to_le_bytes());
+        t
+    };
+    let bytes = side * side;
+    let tiled = ifd(&[(322, 4, 1, side), (323, 4, 1, side), (324, 4, 1, data_at), (325, 4, 1, bytes)]);
+    let striped = ifd(&[(273, 4, 1, data_at), (277, 3, 1, 1), (278, 4, 1, side), (279, 4, 1, bytes)]);
+    for (name, header, chunk) in [("tile.tif", tiled, "tile"), ("strip.tif", striped, "strip")] {
+        let f = std::fs::File::create(dir.path(name)).unwrap();
+        use std::io::Write;
+        (&f).write_all(&header).unwrap();
+        f.set_len(data_at as u64 + bytes as u64).unwrap();
+        dir.write(
+            "pipeline.ron",
+            format!(r#"(output: "b", jobs: [Horizon(id: "t", input: "{name}", directions: 4)])"#),
+        );
+        for args in [&["validate", "pipeline.ron"][..], &["bake", "pipeline.ron"]] {
+            let (out, text, peak) = dir.run_measured(args);
+            assert_eq!(out.status.code(), Some(1), "{}", dir.explain(args, &out, "refused"));
+            assert!(text.contains(name) && text.contains(&format!("one {chunk}'s samples (16384×16384")), "{text}");
+            assert!(!text.contains("panicked"), "{text}");
+            if let Some(kib) = peak {
+                assert!(kib < 200 * 1024, "{} {name} peaked at {kib} KiB", args[0]);
+            }
+        }
+        assert!(!dir.path("b/bundle.ron").exists(), "nothing committed");
+    }
+}
+
+/// A map within `max_dimension` but wider than one texture may be is refused, naming the input,
+/// by `validate PIPELINE` and by the bake of each job that would write it whole, before
+/// baking; a tiled horizon bake of it is fine.
+#[test]
+fn maps_wider_than_a_texture_are_refused_naming_the_input() {
+    let dir = Dir::new("hostile_wide_map");
+    dir.write("wide.r32", vec![0u8; 20000 * 4 * 4]);
+    let source = r#"input: "wide.r32", raw_size: (20000, 4)"#;
+    for job in [format!("Heightfield(id: \"t\", {source})"), format!("Horizon(id: \"t\", {source}, directions: 4)")] {
+        dir.write("pipeline.ron", format!("(output: \"b\", limits: (max_dimension: 30000), jobs: [{job}])"));
+        for args in [&["validate", "pipeline.ron"][..], &["bake", "pipeline.ron"]] {
+            let out = dir.run_expecting(args, 1);
+            let text = stderr(&out);
+            assert!(text.contains("wide.r32") && text.contains("20000×4") && text.contains("16384"), "{job}: {text}");
+        }
+        assert!(!dir.path("b/bundle.ron").exists(), "nothing committed");
+    }
+    let tiled = format!("Horizon(id: \"t\", {source}, directions: 4, tile: Some(4096), max_distance: Some(8.0))");
+    dir.write("pipeline.ron", format!("(output: \"b\", limits: (max_dimension: 30000), jobs: [{tiled}])"));
+    dir.run(&["validate", "pipeline.ron"]);
+}

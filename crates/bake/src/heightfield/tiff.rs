@@ -13,6 +13,11 @@ use tiff::tags::Tag;
 use super::{LoadOptions, check_dimensions};
 use crate::error::BakeError;
 
+/// The most samples one strip or tile may hold (a 4096² chunk): each is decoded whole, so this
+/// bounds the memory of a read that holds one chunk (`validate PIPELINE`, a tile's window) at
+/// 128 MiB of 64-bit samples plus their heights in f32, whatever the chunk's compression.
+pub(super) const MAX_CHUNK_SAMPLES: u64 = 1 << 24;
+
 /// The first image of a TIFF, opened: its header read and checked, no sample decoded yet.
 pub(super) struct TiffFile {
     decoder: Decoder<std::io::BufReader<std::fs::File>>,
@@ -33,9 +38,8 @@ pub(super) fn open(path: &Path, options: &LoadOptions) -> Result<TiffFile, BakeE
     let bad = |e| bad(path, e);
     let file = hikage_bundle::files::open_regular(path).map_err(|e| BakeError::io(path, e))?;
     let mut limits = Limits::default();
-    // Room for the largest map the limits allow, in f32 (the widest sample read).
-    let side = options.max_dimension as usize;
-    limits.decoding_buffer_size = side.saturating_mul(side).saturating_mul(8);
+    // Room for the largest chunk read (checked against the header below), in the widest sample.
+    limits.decoding_buffer_size = MAX_CHUNK_SAMPLES as usize * 8;
     let mut decoder = Decoder::new(std::io::BufReader::new(file)).map_err(bad)?.with_limits(limits);
     let (w, h) = decoder.dimensions().map_err(bad)?;
     check_dimensions(path, w as u64, h as u64, options.max_dimension)?;
@@ -63,6 +67,24 @@ pub(super) fn open(path: &Path, options: &LoadOptions) -> Result<TiffFile, BakeE
                 "expected 8-, 16- or 32-bit integer or 32- or 64-bit float samples, found {bits}-bit {kind} samples"
             ),
         ));
+    }
+    // A strip or tile is decoded whole: its size, from the header, bounds what one read holds.
+    let (cw, ch) = decoder.chunk_dimensions();
+    let (kind, rows) = match decoder.get_chunk_type() {
+        ChunkType::Strip => ("strip", ch.min(h)),
+        ChunkType::Tile => ("tile", ch),
+    };
+    let chunk = u64::from(cw) * u64::from(rows);
+    if chunk > MAX_CHUNK_SAMPLES {
+        return Err(BakeError::Limit {
+            path: path.to_path_buf(),
+            what: format!(
+                "one {kind}'s samples ({cw}×{rows}; a strip or tile is decoded whole, so save the grid tiled or in \
+                 smaller strips, as `gdal_translate -co TILED=YES` does)"
+            ),
+            value: chunk,
+            limit: MAX_CHUNK_SAMPLES,
+        });
     }
     if options.channel.as_deref().is_some_and(|c| !c.eq_ignore_ascii_case("height")) {
         return Err(BakeError::input(path, None, "an elevation TIFF has one channel, `height`"));

@@ -127,7 +127,7 @@ impl Baker for HeightfieldJob {
     }
 
     fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
-        self.source.scan(ctx, &|v| self.options.format.check(v)).map(|_| ())
+        self.source.scan(ctx, true, &|v| self.options.format.check(v)).map(|_| ())
     }
 
     fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {

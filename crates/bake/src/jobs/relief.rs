@@ -216,7 +216,7 @@ impl Baker for ReliefJob {
     fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
         // A block of the file at a time, with the checks `load` makes.
         let s = &self.source;
-        let file = s.scan(ctx, &|v| relief::check_height(s.height_offset + s.height_scale * v))?;
+        let file = s.scan(ctx, true, &|v| relief::check_height(s.height_offset + s.height_scale * v))?;
         let (w, h) = file.size();
         self.params().check_for(w, h).map_err(|m| BakeError::input(s.path(ctx.base_dir), None, m))
     }

@@ -16,7 +16,7 @@ use serde::de::{self, DeserializeSeed, Deserializer, IntoDeserializer, MapAccess
 
 use super::JobContext;
 use crate::error::BakeError;
-use crate::heightfield::{HeightFile, Heightfield, LoadOptions, load_samples};
+use crate::heightfield::{HeightFile, Heightfield, LoadOptions};
 
 /// A heightfield input and its world units (`docs/conventions.md`): world height =
 /// `height_offset + height_scale × sample`, integer images normalised to [0, 1] first.
@@ -135,11 +135,31 @@ impl HeightSource {
         }
     }
 
+    /// A map baked whole becomes textures of its size: its sides must be within what one
+    /// texture may have (a larger map is baked in tiles). The error names the input.
+    pub(super) fn check_whole(&self, path: &Path, (w, h): (u32, u32)) -> Result<(), BakeError> {
+        let limit = hikage_bundle::Limits::default().max_texture_dimension;
+        if w.max(h) > limit {
+            return Err(BakeError::Limit {
+                path: path.to_path_buf(),
+                what: format!(
+                    "image dimension ({w}×{h}; a map baked whole is one texture of its size: a tiled Horizon job, \
+                     `tile: Some(1024)`, bakes a larger one)"
+                ),
+                value: w.max(h) as u64,
+                limit: limit as u64,
+            });
+        }
+        Ok(())
+    }
+
     /// Loads the whole map with the world units attached, every sample checked (finite, a
-    /// finite world height, and `check`).
+    /// finite world height, and `check`), its size within one texture's.
     pub fn load(&self, ctx: &JobContext, check: &dyn Fn(f32) -> Result<(), String>) -> Result<Heightfield, BakeError> {
         let path = self.path(ctx.base_dir);
-        let s = load_samples(&path, &self.load_options(ctx))?;
+        let file = self.open(ctx)?;
+        self.check_whole(&path, file.size())?;
+        let s = file.read_all()?;
         self.check_samples(&path, &s.values, ((0, 0), s.width, (s.width, s.height)), check)?;
         Ok(Heightfield {
             width: s.width,
@@ -155,9 +175,20 @@ impl HeightSource {
 
     /// Checks every sample as [`load`](Self::load) would, a block of the file at a time (the
     /// map need not fit in memory): `validate PIPELINE`'s check.
-    pub fn scan(&self, ctx: &JobContext, check: &dyn Fn(f32) -> Result<(), String>) -> Result<HeightFile, BakeError> {
+    /// With `whole`, the map is baked whole: its size must be one texture's
+    /// ([`load`](Self::load)'s check).
+    pub fn scan(
+        &self,
+        ctx: &JobContext,
+        whole: bool,
+        check: &dyn Fn(f32) -> Result<(), String>,
+    ) -> Result<HeightFile, BakeError> {
+        let path = self.path(ctx.base_dir);
         let mut file = self.open(ctx)?;
-        self.check_extent(&self.path(ctx.base_dir), file.size())?;
+        if whole {
+            self.check_whole(&path, file.size())?;
+        }
+        self.check_extent(&path, file.size())?;
         file.scan(&|v| self.check_sample(v, check))?;
         Ok(file)
     }

@@ -201,7 +201,7 @@ impl Baker for HorizonJob {
 
     fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
         // A block of the file at a time, tiled or not: the map may not fit in memory.
-        self.source.scan(ctx, &self.sample_check()).map(|_| ())
+        self.source.scan(ctx, self.options.tile.is_none(), &self.sample_check()).map(|_| ())
     }
 
     fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
