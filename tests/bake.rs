@@ -2,7 +2,7 @@
 
 use std::time::Duration;
 
-use crate::util::{Dir, snapshot, stderr, stdout};
+use crate::util::{Dir, default_bake, snapshot, stderr, stdout};
 
 fn job_ids(pipeline: &str) -> Vec<String> {
     // Independent of the library's parser: every `id: "..."` in the file.
@@ -11,14 +11,16 @@ fn job_ids(pipeline: &str) -> Vec<String> {
 
 #[test]
 fn default_pipeline_bakes_validates_and_inspects() {
+    let (root, out) = default_bake();
     let dir = Dir::with_default_pipeline("default_pipeline");
-    let out = dir.run(&["bake"]);
     let ids = job_ids(&String::from_utf8(dir.read("pipeline.ron")).unwrap());
     assert!(ids.len() >= 7, "{ids:?}");
-    assert!(stdout(&out).contains(&format!("baked {}, skipped 0", ids.len())), "{}", stdout(&out));
-    dir.run(&["validate", "bundle"]);
+    assert!(out.contains(&format!("baked {}, skipped 0", ids.len())), "{out}");
+    let bundle = root.join("bundle").display().to_string();
+    let bundle = bundle.as_str();
+    dir.run(&["validate", bundle]);
 
-    let out = dir.run(&["inspect", "bundle", "--format", "json"]);
+    let out = dir.run(&["inspect", bundle, "--format", "json"]);
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let assets = json["assets"].as_array().unwrap();
     for id in &ids {
@@ -85,18 +87,21 @@ fn default_pipeline_bakes_validates_and_inspects() {
 
 #[test]
 fn rebake_skips_everything_and_leaves_the_bundle_byte_identical() {
-    let dir = Dir::with_default_pipeline("rebake");
-    dir.run(&["bake"]);
-    let first = snapshot(&dir.path("bundle"));
+    let dir = Dir::with_default_bundle("rebake");
+    let first = dir.bundle_files("bundle");
     let out = dir.run(&["bake"]);
     assert!(stdout(&out).contains("baked 0, skipped"), "{}", stdout(&out));
-    assert_eq!(snapshot(&dir.path("bundle")), first);
+    assert_eq!(dir.bundle_files("bundle"), first);
+    // Now owned by this pipeline, a second rebake leaves every file as it is, records included.
+    let owned = snapshot(&dir.path("bundle"));
+    dir.run(&["bake"]);
+    assert_eq!(snapshot(&dir.path("bundle")), owned);
 }
 
 #[test]
 fn thread_count_does_not_change_a_byte() {
     let one = Dir::with_default_pipeline("jobs1");
-    let two = Dir::with_default_pipeline("jobs2");
+    let two = Dir { root: default_bake().0.clone() }; // baked with --jobs 2
     // The default pipeline holds every kind of job, so this covers them all.
     let kinds: std::collections::BTreeSet<&str> = hikage_bake::Pipeline::load(&one.path("pipeline.ron"))
         .unwrap()
@@ -107,14 +112,12 @@ fn thread_count_does_not_change_a_byte() {
         .collect();
     assert_eq!(kinds.into_iter().collect::<Vec<_>>(), ["curvature", "heightfield", "horizon", "relief", "strands"]);
     one.run(&["bake", "--jobs", "1"]);
-    two.run(&["bake", "--jobs", "2"]);
     assert_eq!(one.bundle_files("bundle"), two.bundle_files("bundle"));
 }
 
 #[test]
 fn flipped_payload_byte_fails_validation_naming_the_asset() {
-    let dir = Dir::with_default_pipeline("flip");
-    dir.run(&["bake"]);
+    let dir = Dir::with_default_bundle("flip");
     let payload = std::fs::read_dir(dir.path("bundle"))
         .unwrap()
         .map(|e| e.unwrap().file_name().into_string().unwrap())
@@ -138,9 +141,8 @@ fn flipped_payload_byte_fails_validation_naming_the_asset() {
 
 #[test]
 fn changed_input_rebakes_one_job_and_removes_its_stale_payloads_once_no_reader_holds_them() {
-    let dir = Dir::with_default_pipeline("changed_input");
-    dir.run(&["bake"]);
-    let before = snapshot(&dir.path("bundle"));
+    let dir = Dir::with_default_bundle("changed_input");
+    let before = dir.bundle_files("bundle");
     let old = |snap: &std::collections::BTreeMap<String, Vec<u8>>| -> Vec<String> {
         snap.keys().filter(|k| k.starts_with("relief_fbm.")).cloned().collect()
     };
@@ -149,7 +151,7 @@ fn changed_input_rebakes_one_job_and_removes_its_stale_payloads_once_no_reader_h
     std::fs::copy(dir.path("data/relief_bricks.png"), dir.path("data/relief_fbm.png")).unwrap();
     let out = dir.run(&["bake"]);
     assert!(stdout(&out).contains("baked 1,") && stdout(&out).contains("removed 2"), "{}", stdout(&out));
-    let after = snapshot(&dir.path("bundle"));
+    let after = dir.bundle_files("bundle");
     assert!(old(&before).iter().all(|k| !after.contains_key(k)), "stale payload kept");
     assert_eq!(after.len(), before.len());
     dir.run(&["validate", "bundle"]);
@@ -166,13 +168,13 @@ fn changed_input_rebakes_one_job_and_removes_its_stale_payloads_once_no_reader_h
     drop(reader);
     let out = dir.run(&["bake"]);
     assert!(stdout(&out).contains("baked 0,") && stdout(&out).contains("removed 2"), "{}", stdout(&out));
-    assert_eq!(snapshot(&dir.path("bundle")).len(), before.len());
+    assert_eq!(dir.bundle_files("bundle").len(), before.len());
     dir.run(&["validate", "bundle"]);
 }
 
 #[test]
 fn build_script_entry_watches_the_pipeline_and_every_input() {
-    let dir = Dir::with_default_pipeline("build_script");
+    let dir = Dir::with_default_bundle("build_script");
     let report = hikage_bake::run::run_pipeline(&dir.path("pipeline.ron"), &Default::default()).unwrap();
     let watched: Vec<String> = report.watched.iter().map(|p| p.display().to_string()).collect();
     assert!(watched[0].ends_with("pipeline.ron"));
@@ -227,8 +229,7 @@ fn killed_bake_leaves_the_old_or_the_new_bundle() {
 
 #[test]
 fn raw_and_exr_export_give_back_the_source_heights() {
-    let dir = Dir::with_default_pipeline("export");
-    dir.run(&["bake"]);
+    let dir = Dir::with_default_bundle("export");
     // Independent reference: decode the PNG with the image crate.
     let png = image::open(dir.path("data/terrain.png")).unwrap().into_luma16();
     let expected: Vec<f32> = png.pixels().map(|p| p.0[0] as f32 / 65535.0).collect();

@@ -5,7 +5,10 @@
 //! cache, errors name `file:line:col`, and two pipelines cannot share an output.
 //!
 //! The fixture builds in a target directory of its own under the tests' temporary directory,
-//! kept between runs, so only the first run compiles the baker for it.
+//! kept between runs, so only the first run compiles the baker for it. That first compile takes
+//! about two minutes on two cores, so these tests are left out of the README's test command and
+//! run as their own step of `.ci/run`:
+//! `cargo test --release --test integration build_script -- --ignored`.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -80,6 +83,7 @@ fn ran_build_script(log: &str) -> bool {
 }
 
 #[test]
+#[ignore = "compiles a crate against hikage-bake (minutes): its own step of .ci/run"]
 fn a_build_script_bakes_into_out_dir_and_repairs_what_was_deleted() {
     let dir = fixture("build_script_game");
     let before = sources(&dir);
@@ -135,6 +139,7 @@ fn a_build_script_bakes_into_out_dir_and_repairs_what_was_deleted() {
 }
 
 #[test]
+#[ignore = "compiles a crate against hikage-bake (minutes): its own step of .ci/run"]
 fn a_build_script_reports_errors_with_their_place() {
     let dir = fixture("build_script_errors");
     let cases = [
@@ -165,6 +170,7 @@ fn a_build_script_reports_errors_with_their_place() {
 }
 
 #[test]
+#[ignore = "compiles a crate against hikage-bake (minutes): its own step of .ci/run"]
 fn two_pipelines_cannot_share_one_output() {
     let dir = fixture("build_script_shared_output");
     let shared = dir.path("shared");

@@ -30,6 +30,20 @@ impl Dir {
         Dir::with_pipeline(name, &std::fs::read_to_string(repo().join("pipeline.ron")).unwrap())
     }
 
+    /// A directory holding the default pipeline, `data/` and the bundle of
+    /// [`default_bake`] — a bundle as the previous bake left it, without its owner record (the
+    /// first bake here takes it over) — so a test of what follows a bake does not bake again.
+    pub fn with_default_bundle(name: &str) -> Dir {
+        let dir = Dir::with_default_pipeline(name);
+        let baked = Dir { root: default_bake().0.clone() };
+        for (file, bytes) in baked.bundle_files("bundle") {
+            dir.write(&format!("bundle/{file}"), bytes);
+        }
+        // The readers' lock a commit leaves (without it the next commit keeps what it retires).
+        dir.write("bundle/.hikage-readers.lock", "");
+        dir
+    }
+
     /// A directory holding `pipeline` as `pipeline.ron` and a copy of `data/`.
     pub fn with_pipeline(name: &str, pipeline: &str) -> Dir {
         let dir = Dir::new(name);
@@ -224,6 +238,18 @@ pub fn shared_bundle(name: &str, pipeline: &str) -> PathBuf {
             dir.path("bundle")
         })
         .clone()
+}
+
+/// The default pipeline baked once per test process with `--jobs 2`: its directory (the
+/// pipeline, `data/`, `bundle/`; read-only to the tests) and the bake's standard output.
+pub fn default_bake() -> &'static (PathBuf, String) {
+    use std::sync::OnceLock;
+    static BAKED: OnceLock<(PathBuf, String)> = OnceLock::new();
+    BAKED.get_or_init(|| {
+        let dir = Dir::with_default_pipeline("default_bake");
+        let out = dir.run(&["bake", "--jobs", "2"]);
+        (dir.root, stdout(&out))
+    })
 }
 
 /// `(baked, from the cache)` of a bake's report line.
