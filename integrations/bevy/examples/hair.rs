@@ -21,8 +21,8 @@ fn main() {
 fn setup(mut commands: Commands, assets: Res<AssetServer>, mut meshes: ResMut<Assets<Mesh>>) {
     let bundle = assets.load("bundle/bundle.ron");
     let mut hair = HairStrands::new(bundle, "head.strips");
-    hair.style.root_tint = hikage_runtime::glam::Vec3::new(0.3, 0.2, 0.14);
-    hair.style.tip_tint = hikage_runtime::glam::Vec3::new(0.7, 0.55, 0.4);
+    hair.style.root_tint = Vec3::new(0.3, 0.2, 0.14);
+    hair.style.tip_tint = Vec3::new(0.7, 0.55, 0.4);
     hair.style.color_variation = 0.3;
     let hair = commands.spawn(hair).id();
     // The scalp the strands grow from: a sphere through their roots.

@@ -18,6 +18,7 @@ use hikage_bundle::{AssetKind, Settings};
 use crate::HikageBundle;
 use crate::attach::FromBundle;
 use crate::attributes;
+use crate::diagnostics::{NamesBundle, Problems};
 
 /// Bevy's `StandardMaterial` on a curved mesh with a bump map and curvature-corrected horizon
 /// shadows.
@@ -26,7 +27,7 @@ pub type CurvedMaterial = ExtendedMaterial<StandardMaterial, CurvedExtension>;
 /// Draws `Curvature` asset `curvature` of `bundle` (the mesh, with κ1, κ2, the principal
 /// directions and `P_u`, `P_v` per vertex) carrying the bump map of `Horizon` asset `horizon`,
 /// tiled once per unit of UV. The sun is the scene's first `DirectionalLight`, with
-/// `shadows_enabled` as for [`crate::HorizonTerrain`].
+/// `shadow_maps_enabled` as for [`crate::HorizonTerrain`].
 ///
 /// ```no_run
 /// use bevy::prelude::*;
@@ -38,7 +39,7 @@ pub type CurvedMaterial = ExtendedMaterial<StandardMaterial, CurvedExtension>;
 /// }
 /// ```
 #[derive(Component, Clone, Debug)]
-#[require(bevy_transform::components::Transform, bevy_camera::visibility::Visibility)]
+#[require(bevy_transform::components::Transform, bevy_camera::visibility::Visibility, Problems)]
 pub struct CurvedSurface {
     /// The bundle holding the assets.
     pub bundle: Handle<HikageBundle>,
@@ -143,12 +144,14 @@ impl MaterialExtension for CurvedExtension {
     }
 }
 
-impl FromBundle for CurvedSurface {
-    type Material = CurvedMaterial;
-
+impl NamesBundle for CurvedSurface {
     fn bundle(&self) -> &Handle<HikageBundle> {
         &self.bundle
     }
+}
+
+impl FromBundle for CurvedSurface {
+    type Material = CurvedMaterial;
 
     fn build(&self, bundle: &HikageBundle) -> Result<(CurvedMaterial, Option<Handle<Mesh>>), String> {
         let curvature =

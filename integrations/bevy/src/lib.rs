@@ -41,6 +41,7 @@
 mod attach;
 pub mod attributes;
 pub mod curved;
+mod diagnostics;
 mod grid;
 pub mod hair;
 pub mod light_fit;
@@ -51,7 +52,6 @@ pub mod terrain;
 
 use bevy_app::{App, Plugin, PostUpdate, Update};
 use bevy_asset::{Asset, AssetApp, Assets, Handle};
-use bevy_ecs::component::Component;
 use bevy_ecs::schedule::IntoScheduleConfigs;
 use bevy_image::Image;
 use bevy_light::SimulationLightSystems;
@@ -60,8 +60,9 @@ use bevy_pbr::MaterialPlugin;
 use bevy_reflect::TypePath;
 
 pub use curved::{CurvedExtension, CurvedMaterial, CurvedSurface};
+pub use diagnostics::HikageError;
 pub use grid::GRID_LABEL;
-pub use hair::{HairDraw, HairReceiver, HairReceiverMaterial, HairShadowMaps, HairStrands};
+pub use hair::{HairDraw, HairReceiver, HairReceiverMaterial, HairShadowMaps, HairStrands, HairStyle};
 pub use hikage_bundle::{Asset as ManifestAsset, Manifest, Settings};
 pub use light_fit::FittedShadows;
 pub use loader::{BundleLoadError, BundleLoader};
@@ -85,8 +86,15 @@ impl Plugin for HikagePlugin {
         hair::build(app);
         app.add_systems(
             Update,
-            (attach::attach::<HorizonTerrain>, attach::attach::<ReliefSurface>, attach::attach::<CurvedSurface>),
+            (
+                (attach::attach::<HorizonTerrain>, attach::attach::<ReliefSurface>, attach::attach::<CurvedSurface>),
+                (diagnostics::check_load::<HorizonTerrain>, diagnostics::check_sun::<HorizonTerrain>),
+                (diagnostics::check_load::<ReliefSurface>, diagnostics::check_sun::<ReliefSurface>),
+                (diagnostics::check_load::<CurvedSurface>, diagnostics::check_sun::<CurvedSurface>),
+                (diagnostics::check_load::<HairStrands>, relief::check_mesh),
+            ),
         );
+        app.add_systems(PostUpdate, diagnostics::publish);
         app.add_systems(
             PostUpdate,
             light_fit::fit_shadows
@@ -128,11 +136,6 @@ impl Plugin for HikageAssetsPlugin {
         }
     }
 }
-
-/// Why hikage could not build an entity's component (a missing or mistyped asset id): set on
-/// the entity, and logged once, until the component or its bundle changes.
-#[derive(Component, Clone, Debug, PartialEq)]
-pub struct HikageError(pub String);
 
 /// A loaded bundle: its manifest, and a handle to each payload as a labelled sub-asset.
 #[derive(Asset, TypePath, Debug)]

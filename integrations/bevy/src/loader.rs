@@ -43,11 +43,12 @@ impl BundleLoader {
 #[derive(Debug, thiserror::Error)]
 pub enum BundleLoadError {
     /// The manifest cannot be read or used.
-    #[error("{path}: {message}")]
+    #[error("{message}")]
     Manifest {
         /// The manifest's asset path.
         path: String,
-        /// What is wrong.
+        /// What is wrong, beginning with the path (and the line and column, where the text is
+        /// at fault).
         message: String,
     },
     /// An asset's payload is missing, damaged or of a kind Bevy cannot hold.
@@ -74,7 +75,8 @@ impl AssetLoader for BundleLoader {
         context: &mut LoadContext<'_>,
     ) -> Result<HikageBundle, BundleLoadError> {
         let path = context.path().to_string();
-        let manifest_error = |message: String| BundleLoadError::Manifest { path: path.clone(), message };
+        let manifest_error =
+            |message: String| BundleLoadError::Manifest { path: path.clone(), message: format!("{path}: {message}") };
         let limits = Limits::default();
         let mut text = Vec::new();
         reader.read_to_end(&mut text).await.map_err(|e| manifest_error(e.to_string()))?;
@@ -86,7 +88,9 @@ impl AssetLoader for BundleLoader {
             )));
         }
         let text = String::from_utf8(text).map_err(|e| manifest_error(format!("expected UTF-8 text: {e}")))?;
-        let manifest = Manifest::parse(&text, Path::new(&path)).map_err(|e| manifest_error(e.to_string()))?;
+        // The parser's error names the path (and line and column) itself.
+        let manifest = Manifest::parse(&text, Path::new(&path))
+            .map_err(|e| BundleLoadError::Manifest { path: path.clone(), message: e.to_string() })?;
         if let Some((asset, message)) =
             hikage_bundle::validate::manifest_problems(&manifest, &limits).into_iter().next()
         {

@@ -3,11 +3,11 @@
 //! hit, shaded with the relief's normal, shadowed by the depth maps toward the first directional
 //! light and occluded by the same maps.
 
-use bevy_asset::{Asset, Handle};
+use bevy_asset::{Asset, Assets, Handle};
 use bevy_ecs::prelude::*;
 use bevy_image::Image;
 use bevy_math::UVec2;
-use bevy_mesh::Mesh;
+use bevy_mesh::{Mesh, Mesh3d, PrimitiveTopology};
 use bevy_pbr::{ExtendedMaterial, MaterialExtension, StandardMaterial};
 use bevy_reflect::Reflect;
 use bevy_render::render_resource::{AsBindGroup, ShaderType};
@@ -17,13 +17,17 @@ pub use hikage_runtime::relief::{DirectionRule, Tracer, VisibilityPath};
 
 use crate::HikageBundle;
 use crate::attach::FromBundle;
+use crate::diagnostics::{Check, NamesBundle, Problems};
 
 /// Bevy's `StandardMaterial` under relief mapping with self-shadowing and ambient occlusion.
 pub type ReliefMaterial = ExtendedMaterial<StandardMaterial, ReliefExtension>;
 
 /// Relief-maps an entity's mesh with a bundle's `Relief` asset: put it next to a `Mesh3d`
-/// whose mesh has normals, tangents (`Mesh::generate_tangents`) and UVs; one relief tile spans
-/// one unit of UV, and the relief's depth is its `depth_scale` of a tile's width.
+/// whose mesh has normals and UVs; one relief tile spans one unit of UV, and the relief's depth
+/// is its `depth_scale` of a tile's width. A mesh without tangents gets them generated
+/// (`Mesh::generate_tangents`, said once in the log); an entity without a `Mesh3d`, or a mesh
+/// without normals or UVs, gets a [`HikageError`](crate::HikageError), as does a sun without
+/// shadow maps while `shadows` is on.
 ///
 /// ```no_run
 /// use bevy::prelude::*;
@@ -36,6 +40,7 @@ pub type ReliefMaterial = ExtendedMaterial<StandardMaterial, ReliefExtension>;
 /// }
 /// ```
 #[derive(Component, Clone, Debug)]
+#[require(Problems)]
 pub struct ReliefSurface {
     /// The bundle holding the assets.
     pub bundle: Handle<HikageBundle>,
@@ -165,12 +170,18 @@ impl MaterialExtension for ReliefExtension {
     }
 }
 
-impl FromBundle for ReliefSurface {
-    type Material = ReliefMaterial;
-
+impl NamesBundle for ReliefSurface {
     fn bundle(&self) -> &Handle<HikageBundle> {
         &self.bundle
     }
+
+    fn shadowed_by_sun(&self) -> bool {
+        self.shadows
+    }
+}
+
+impl FromBundle for ReliefSurface {
+    type Material = ReliefMaterial;
 
     fn build(&self, bundle: &HikageBundle) -> Result<(ReliefMaterial, Option<Handle<Mesh>>), String> {
         let depths = bundle.image_of_kind(&self.relief, AssetKind::Relief)?;
@@ -192,4 +203,66 @@ impl FromBundle for ReliefSurface {
         let extension = ReliefExtension { shading, heights, depths, tracing: tracing.into() };
         Ok((ExtendedMaterial { base: self.base.clone(), extension }, None))
     }
+}
+
+/// Checks the mesh of each [`ReliefSurface`]: there is one, a triangle list with normals and
+/// UVs; tangents are generated where they are missing. A mesh still loading, or whose vertex
+/// data lives only in the render world, is not judged.
+pub(crate) fn check_mesh(
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut surfaces: Query<(Entity, Option<&Mesh3d>, &mut Problems), With<ReliefSurface>>,
+) {
+    for (entity, mesh, mut problems) in &mut surfaces {
+        let problem = match mesh {
+            None => Some(
+                "a ReliefSurface draws on the entity's own mesh, and this entity has no Mesh3d: add one with \
+                 normals and UVs"
+                    .to_string(),
+            ),
+            Some(mesh) => match meshes.get(&mesh.0) {
+                None => continue,
+                Some(m) => match relief_mesh(m) {
+                    Ok(true) => None,
+                    Ok(false) => {
+                        let generated = meshes.get_mut(&mesh.0).map(|mut m| m.generate_tangents());
+                        match generated {
+                            Some(Ok(())) => {
+                                bevy_log::warn!(
+                                    "hikage: entity {entity}: its mesh had no tangents, generated for relief mapping"
+                                );
+                                None
+                            }
+                            Some(Err(e)) => {
+                                Some(format!("its mesh has no tangents, and they cannot be generated: {e}"))
+                            }
+                            None => continue,
+                        }
+                    }
+                    Err(message) => Some(message),
+                },
+            },
+        };
+        Problems::set(&mut problems, Check::Mesh, problem);
+    }
+}
+
+/// Whether `mesh` has tangents (`Ok(false)`: missing, but it has what generating them needs),
+/// or why relief mapping cannot use it.
+fn relief_mesh(mesh: &Mesh) -> Result<bool, String> {
+    let has = |attribute| mesh.try_contains_attribute(attribute).unwrap_or(true);
+    if mesh.primitive_topology() != PrimitiveTopology::TriangleList {
+        return Err(format!("its mesh is a {:?}: relief mapping needs a triangle list", mesh.primitive_topology()));
+    }
+    let missing: Vec<&str> = [(Mesh::ATTRIBUTE_NORMAL, "normals"), (Mesh::ATTRIBUTE_UV_0, "UVs")]
+        .into_iter()
+        .filter(|(a, _)| !has(a.id))
+        .map(|(_, name)| name)
+        .collect();
+    if !missing.is_empty() {
+        return Err(format!(
+            "its mesh has no {}: relief mapping needs normals, UVs and tangents",
+            missing.join(" and ")
+        ));
+    }
+    Ok(has(Mesh::ATTRIBUTE_TANGENT.id))
 }

@@ -15,6 +15,7 @@ use hikage_bundle::AssetKind;
 
 use crate::HikageBundle;
 use crate::attach::FromBundle;
+use crate::diagnostics::{NamesBundle, Problems};
 
 /// Bevy's `StandardMaterial` with horizon shadows and baked ambient occlusion.
 pub type TerrainMaterial = ExtendedMaterial<StandardMaterial, TerrainExtension>;
@@ -22,10 +23,13 @@ pub type TerrainMaterial = ExtendedMaterial<StandardMaterial, TerrainExtension>;
 /// Draws a bundle's terrain: put it on an entity with a `Transform`, and once the bundle has
 /// loaded the entity gets the heightfield's grid mesh and a [`TerrainMaterial`].
 ///
-/// The sun is the scene's first `DirectionalLight`; it must have `shadows_enabled` (Bevy applies
-/// a material's shadow factor only to shadow-casting lights), and its `sun_disk_angular_size`
-/// is the disc whose visible share the horizon test returns. Bevy's cascades still shadow the
-/// terrain (other casters on it, and the terrain on itself): the two visibilities multiply.
+/// The sun is the scene's first `DirectionalLight`; it must have `shadow_maps_enabled` (Bevy
+/// applies a material's shadow factor only to a light with shadow maps; without one the entity
+/// gets a [`HikageError`](crate::HikageError)), and the angular size of its disc (a `SunDisk` on
+/// the light, Earth's sun by default) is the disc whose visible share the horizon test returns.
+/// Bevy's cascades still shadow the terrain (other casters on it, and the terrain on itself):
+/// the two visibilities multiply. An AO map must be of the same terrain (its horizon's
+/// heightfield, its size).
 ///
 /// ```no_run
 /// use bevy::prelude::*;
@@ -37,7 +41,7 @@ pub type TerrainMaterial = ExtendedMaterial<StandardMaterial, TerrainExtension>;
 /// }
 /// ```
 #[derive(Component, Clone, Debug)]
-#[require(bevy_transform::components::Transform, bevy_camera::visibility::Visibility)]
+#[require(bevy_transform::components::Transform, bevy_camera::visibility::Visibility, Problems)]
 pub struct HorizonTerrain {
     /// The bundle holding the assets.
     pub bundle: Handle<HikageBundle>,
@@ -114,12 +118,14 @@ impl MaterialExtension for TerrainExtension {
     }
 }
 
-impl FromBundle for HorizonTerrain {
-    type Material = TerrainMaterial;
-
+impl NamesBundle for HorizonTerrain {
     fn bundle(&self) -> &Handle<HikageBundle> {
         &self.bundle
     }
+}
+
+impl FromBundle for HorizonTerrain {
+    type Material = TerrainMaterial;
 
     fn build(&self, bundle: &HikageBundle) -> Result<(TerrainMaterial, Option<Handle<Mesh>>), String> {
         let (settings, horizon, encoding) = bundle.horizon(&self.horizon)?;
@@ -128,7 +134,7 @@ impl FromBundle for HorizonTerrain {
         })?;
         let ao = match &self.ao {
             None => None,
-            Some(id) => Some(bundle.image_of_kind(id, AssetKind::AmbientOcclusion)?),
+            Some(id) => Some(ambient_occlusion(bundle, id, &self.horizon, &settings.heightfield)?),
         };
         let uniform = TerrainUniform {
             format: encoding.format,
@@ -142,4 +148,40 @@ impl FromBundle for HorizonTerrain {
         let extension = TerrainExtension { uniform, horizon, ao };
         Ok((ExtendedMaterial { base: self.base.clone(), extension }, Some(grid)))
     }
+}
+
+/// The image of AO asset `id` for the terrain of `horizon` (of heightfield `heightfield`): of
+/// that heightfield and of its size, or why not (another map's AO would be stretched over it).
+fn ambient_occlusion(
+    bundle: &HikageBundle,
+    id: &str,
+    horizon: &str,
+    heightfield: &str,
+) -> Result<Handle<Image>, String> {
+    let image = bundle.image_of_kind(id, AssetKind::AmbientOcclusion)?;
+    let size = |asset: &str| {
+        let desc = bundle.asset(asset).and_then(|a| a.payload.texture());
+        desc.map(|d| (d.width, d.height)).ok_or_else(|| format!("asset `{asset}` is not a texture"))
+    };
+    let (ao, map) = (size(id)?, size(horizon)?);
+    if ao != map {
+        return Err(format!(
+            "AO `{id}` is {}×{}, but terrain `{horizon}` is {}×{}: an AO map must be baked from the same terrain",
+            ao.0, ao.1, map.0, map.1
+        ));
+    }
+    let of = bundle.asset(id).and_then(|a| match &a.settings {
+        hikage_bundle::Settings::AmbientOcclusion(s) => Some(s.horizon.as_str()),
+        _ => None,
+    });
+    let of_heightfield = of.and_then(|h| bundle.asset(h)).and_then(|a| match &a.settings {
+        hikage_bundle::Settings::Horizon(s) => Some(s.heightfield.as_str()),
+        _ => None,
+    });
+    if let Some(other) = of_heightfield.filter(|&h| h != heightfield) {
+        return Err(format!(
+            "AO `{id}` was baked from heightfield `{other}`, but terrain `{horizon}` is heightfield `{heightfield}`"
+        ));
+    }
+    Ok(image)
 }

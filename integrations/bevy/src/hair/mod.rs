@@ -20,11 +20,12 @@ use bevy_render::render_resource::{Extent3d, TextureDimension, TextureFormat, Te
 use bevy_render::storage::ShaderBuffer;
 use hikage_runtime::glam;
 use hikage_runtime::hair::{HairFrame, HairLight, HairUniform};
-pub use hikage_runtime::hair::{HairLod, HairSet, HairStyle, Lod, Lookup};
+pub use hikage_runtime::hair::{HairLod, HairSet, Lod, Lookup};
 
 pub use receiver::{HairReceiver, HairReceiverExtension, HairReceiverMaterial};
 
 use crate::HikageBundle;
+use crate::diagnostics::{Check, NamesBundle, Problems};
 
 /// How a camera sees the hair.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -61,6 +62,7 @@ pub enum HairDraw {
 /// }
 /// ```
 #[derive(Component, Clone, Debug)]
+#[require(Problems)]
 pub struct HairStrands {
     /// The bundle holding the strips.
     pub bundle: Handle<HikageBundle>,
@@ -106,7 +108,7 @@ impl HairStrands {
             specular_power: defaults.specular_power,
             min_pixel_width: defaults.min_pixel_width,
             lod: defaults.lod,
-            style: defaults.style,
+            style: HairStyle::default(),
         }
     }
 
@@ -120,6 +122,76 @@ impl HairStrands {
     pub fn with_light(mut self, light: Entity) -> HairStrands {
         self.light = Some(light);
         self
+    }
+}
+
+impl NamesBundle for HairStrands {
+    fn bundle(&self) -> &Handle<HikageBundle> {
+        &self.bundle
+    }
+
+    /// The hair takes its light through its own opacity maps, not Bevy's shadow factor.
+    fn shadowed_by_sun(&self) -> bool {
+        false
+    }
+}
+
+/// How strands look beyond what the asset holds, in Bevy's types: a gradient from root to tip,
+/// a taper, and a per-strand variation (hikage-runtime's `HairStyle`).
+///
+/// ```
+/// use bevy::math::Vec3;
+/// use hikage_bevy::HairStyle;
+///
+/// let auburn = HairStyle {
+///     root_tint: Vec3::new(0.3, 0.2, 0.14),
+///     tip_tint: Vec3::new(0.7, 0.55, 0.4),
+///     ..HairStyle::default()
+/// };
+/// assert_eq!(auburn.root_alpha, 1.0);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HairStyle {
+    /// Factor on the strand colour at the root (linear RGB).
+    pub root_tint: bevy_math::Vec3,
+    /// Factor on the strand colour at the tip; mixed with `root_tint` along the strand.
+    pub tip_tint: bevy_math::Vec3,
+    /// Factor on the opacity at the root.
+    pub root_alpha: f32,
+    /// Factor on the opacity at the tip (a fade toward the tips below 1).
+    pub tip_alpha: f32,
+    /// Share of the width lost at the tip, or `None` for the asset's.
+    pub taper: Option<f32>,
+    /// Spread of a per-strand brightness factor, hashed from the strand's id (0: none; 0.2:
+    /// ±10%).
+    pub color_variation: f32,
+}
+
+impl Default for HairStyle {
+    /// hikage-runtime's default: untinted, opaque to the tips, the asset's taper, no variation.
+    fn default() -> HairStyle {
+        let d = hikage_runtime::hair::HairStyle::default();
+        HairStyle {
+            root_tint: bevy_math::Vec3::from_array(d.root_tint.to_array()),
+            tip_tint: bevy_math::Vec3::from_array(d.tip_tint.to_array()),
+            root_alpha: d.root_alpha,
+            tip_alpha: d.tip_alpha,
+            taper: d.taper,
+            color_variation: d.color_variation,
+        }
+    }
+}
+
+impl From<HairStyle> for hikage_runtime::hair::HairStyle {
+    fn from(s: HairStyle) -> hikage_runtime::hair::HairStyle {
+        hikage_runtime::hair::HairStyle {
+            root_tint: glam::Vec3::from_array(s.root_tint.to_array()),
+            tip_tint: glam::Vec3::from_array(s.tip_tint.to_array()),
+            root_alpha: s.root_alpha,
+            tip_alpha: s.tip_alpha,
+            taper: s.taper,
+            color_variation: s.color_variation,
+        }
     }
 }
 
@@ -151,29 +223,17 @@ pub(crate) fn build(app: &mut App) {
     render::build(app);
 }
 
-/// Marks each [`HairStrands`] whose loaded bundle has no such `Strands` asset with a
-/// [`HikageError`](crate::HikageError) (logged once), and clears it once the asset is there.
-fn check_strips(
-    mut commands: Commands,
-    hairs: Query<(Entity, &HairStrands, Has<crate::HikageError>)>,
-    bundles: Res<Assets<HikageBundle>>,
-) {
-    for (entity, hair, failed) in &hairs {
+/// Says on each [`HairStrands`] whose loaded bundle has no such `Strands` asset what is there
+/// instead, and clears it once the asset is there.
+fn check_strips(mut hairs: Query<(&HairStrands, &mut Problems)>, bundles: Res<Assets<HikageBundle>>) {
+    for (hair, mut problems) in &mut hairs {
         let Some(bundle) = bundles.get(&hair.bundle) else { continue };
-        match (bundle.strands(&hair.strips).is_some(), failed) {
-            (false, false) => {
-                let message = match bundle.asset(&hair.strips) {
-                    Some(a) => format!("asset `{}` is a {:?}, expected Strands", hair.strips, a.kind),
-                    None => format!("no asset `{}` in the bundle", hair.strips),
-                };
-                bevy_log::error!("hikage: {message}");
-                commands.entity(entity).insert(crate::HikageError(message));
-            }
-            (true, true) => {
-                commands.entity(entity).remove::<crate::HikageError>();
-            }
-            _ => {}
-        }
+        let problem = match (bundle.strands(&hair.strips), bundle.asset(&hair.strips)) {
+            (Some(_), _) => None,
+            (None, Some(a)) => Some(format!("asset `{}` is a {:?}, expected Strands", hair.strips, a.kind)),
+            (None, None) => Some(format!("no asset `{}` in the bundle", hair.strips)),
+        };
+        Problems::set(&mut problems, Check::Build, problem);
     }
 }
 

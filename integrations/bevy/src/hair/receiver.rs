@@ -12,7 +12,7 @@ use bevy_render::storage::ShaderBuffer;
 use bevy_shader::ShaderRef;
 
 use super::HairShadowMaps;
-use crate::HikageError;
+use crate::diagnostics::{Check, Problems};
 
 /// Bevy's `StandardMaterial` shadowed by a hair's deep opacity maps.
 pub type HairReceiverMaterial = ExtendedMaterial<StandardMaterial, HairReceiverExtension>;
@@ -34,7 +34,7 @@ pub type HairReceiverMaterial = ExtendedMaterial<StandardMaterial, HairReceiverE
 /// }
 /// ```
 #[derive(Component, Clone, Debug)]
-#[require(bevy_transform::components::Transform, bevy_camera::visibility::Visibility)]
+#[require(bevy_transform::components::Transform, bevy_camera::visibility::Visibility, Problems)]
 pub struct HairReceiver {
     /// The entity with the `HairStrands` whose shadow this mesh receives.
     pub hair: Entity,
@@ -82,34 +82,33 @@ impl MaterialExtension for HairReceiverExtension {
     }
 }
 
-/// A receiver as [`attach`] sees it: whether it has been built or has failed.
-type Receiver<'a> = (Entity, Ref<'a, HairReceiver>, Has<MeshMaterial3d<HairReceiverMaterial>>, Has<HikageError>);
+/// A receiver as [`attach`] sees it: whether it has been built, what is wrong.
+type Receiver<'a> = (Entity, Ref<'a, HairReceiver>, Has<MeshMaterial3d<HairReceiverMaterial>>, Mut<'a, Problems>);
 
 /// Builds each receiver whose hair has its maps and that is new, changed, or whose hair got new
-/// maps; a receiver naming an entity without `HairStrands` gets a [`HikageError`].
+/// maps; a receiver naming an entity without `HairStrands` says so.
 pub(crate) fn attach(
     mut commands: Commands,
-    receivers: Query<Receiver>,
+    mut receivers: Query<Receiver>,
     hairs: Query<(Has<super::HairStrands>, Option<Ref<HairShadowMaps>>)>,
     mut materials: ResMut<Assets<HairReceiverMaterial>>,
 ) {
-    for (entity, receiver, built, failed) in &receivers {
+    for (entity, receiver, built, mut problems) in &mut receivers {
         let (is_hair, maps) = hairs.get(receiver.hair).map_or((false, None), |(h, m)| (h, m));
         let stale = receiver.is_changed() || maps.as_ref().is_some_and(|m| m.is_changed());
-        if (built || failed) && !stale {
+        if (built || problems.get(Check::Build).is_some()) && !stale {
             continue;
         }
-        let mut e = commands.entity(entity);
         match maps {
             Some(maps) => {
                 let material =
                     ExtendedMaterial { base: receiver.base.clone(), extension: HairReceiverExtension::new(&maps) };
-                e.remove::<HikageError>().insert(MeshMaterial3d(materials.add(material)));
+                commands.entity(entity).insert(MeshMaterial3d(materials.add(material)));
+                Problems::set(&mut problems, Check::Build, None);
             }
             None if !is_hair => {
                 let message = format!("hair receiver {entity}: entity {} has no HairStrands", receiver.hair);
-                bevy_log::error!("hikage: {message}");
-                e.insert(HikageError(message));
+                Problems::set(&mut problems, Check::Build, Some(message));
             }
             None => {} // the hair gets its maps this frame
         }

@@ -224,7 +224,7 @@ fn frame(h: &ExtractedHair, view: &ExtractedView, camera: &ExtractedCamera, rend
         lookup: hair.lookup,
         min_pixel_width: hair.min_pixel_width,
         lod: hair.lod,
-        style: hair.style,
+        style: hair.style.into(),
         ..HairFrame::new(camera_matrix, eye, renderer.light(h.to_light))
     }
 }
