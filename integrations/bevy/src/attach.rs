@@ -21,8 +21,8 @@ pub(crate) trait FromBundle: NamesBundle + Sized {
 /// An entity as [`attach`] sees it: its component, whether it has been built, what is wrong.
 type State<'a, C, M> = (Entity, Ref<'a, C>, Has<MeshMaterial3d<M>>, Mut<'a, Problems>);
 
-/// Builds each `C` whose bundle has loaded and that is new, changed or has a (re)loaded
-/// bundle; a failure goes to the entity's [`Problems`] and leaves the last material it had.
+/// Builds each `C` whose bundle has loaded and that is new, changed or has a reloaded bundle;
+/// a failure goes to the entity's [`Problems`] and leaves the last material it had.
 pub(crate) fn attach<C: FromBundle>(
     mut commands: Commands,
     mut events: MessageReader<AssetEvent<HikageBundle>>,
@@ -30,16 +30,12 @@ pub(crate) fn attach<C: FromBundle>(
     mut materials: ResMut<Assets<C::Material>>,
     mut entities: Query<State<C, C::Material>>,
 ) {
-    // A bundle that loads after a failed first load is `Added`, a reload `Modified`.
-    let loaded: Vec<_> = events
-        .read()
-        .filter_map(|e| match e {
-            AssetEvent::Added { id } | AssetEvent::Modified { id } => Some(*id),
-            _ => None,
-        })
-        .collect();
+    // A reload is `Modified`. (A bundle that loads after a failed first load needs no event:
+    // its entities were never built.)
+    let reloaded: Vec<_> =
+        events.read().filter_map(|e| if let AssetEvent::Modified { id } = e { Some(*id) } else { None }).collect();
     for (entity, component, built, mut problems) in &mut entities {
-        let stale = component.is_changed() || loaded.contains(&component.bundle().id());
+        let stale = component.is_changed() || reloaded.contains(&component.bundle().id());
         if (built || problems.get(Check::Build).is_some()) && !stale {
             continue;
         }
