@@ -25,6 +25,12 @@ use crate::util::{Dir, gpu};
 /// Three straight strands along x at different heights, overlapping seen from above, a fourth
 /// along z crossing them, and a curved one; as a bundle holding their strips.
 fn strands_bundle(name: &str) -> (Dir, StripArrays) {
+    let (s, sets) = test_strands();
+    strips_dir(name, "s.strips", &s, &sets)
+}
+
+/// The strands of [`strands_bundle`] and their sets.
+fn test_strands() -> (Strands, StripSets) {
     let mut points = Vec::new();
     let mut segments = Vec::new();
     for (k, (y, z)) in [(0.0f32, 0.0f32), (0.37, 0.113), (0.81, -0.071)].iter().enumerate() {
@@ -53,7 +59,7 @@ fn strands_bundle(name: &str) -> (Dir, StripArrays) {
         default_color: [0.5; 3],
     };
     let sets = StripSets { shading: (0.05, 0.4), opacity: (0.23, 0.09), taper: 0.3 };
-    strips_dir(name, "s.strips", &s, &sets)
+    (s, sets)
 }
 
 /// A bundle in a fresh directory holding the strips of `s` with `sets` as asset `id`, and
@@ -185,6 +191,78 @@ fn hair_camera_pass_matches_the_cpu_composite() {
         assert!(covered > 400, "the strands should cover part of the image");
         assert!(lit / covered as f32 > 0.1, "lit hair");
         assert!(close as f64 >= 0.97 * covered as f64, "{blend:?}: {close} of {covered}");
+    }
+}
+
+/// Hair drawn through a model matrix — moved, turned a quarter about y and scaled 2× — matches
+/// the same strands baked already there (their points carried by the matrix, their widths
+/// doubled): the opacity maps follow the hair (the light fitted with the same matrix), so the
+/// hair and its shadow on a ground plane agree within 1/255 on at least 99.9% of the pixels,
+/// blended and opaque.
+#[test]
+fn hair_drawn_with_a_model_matrix_matches_the_hair_baked_there() {
+    use hikage_runtime::glam::{Mat4, Vec4};
+    use hikage_scenes::hair_scene::Ground;
+    let (s, sets) = test_strands();
+    // Exact entries, so the baked copy's points are what the matrix gives.
+    let model = Mat4::from_cols(
+        Vec4::new(0.0, 0.0, -2.0, 0.0),
+        Vec4::new(0.0, 2.0, 0.0, 0.0),
+        Vec4::new(2.0, 0.0, 0.0, 0.0),
+        Vec4::new(3.0, -1.0, 0.5, 1.0),
+    );
+    let moved = Strands {
+        points: s.points.iter().map(|p| model.transform_point3(Vec3::from(*p)).to_array()).collect(),
+        ..s.clone()
+    };
+    let doubled = StripSets {
+        shading: (2.0 * sets.shading.0, sets.shading.1),
+        opacity: (2.0 * sets.opacity.0, sets.opacity.1),
+        ..sets
+    };
+    let (here, _) = strips_dir("gpu_hair_model", "s.strips", &s, &sets);
+    let (there, _) = strips_dir("gpu_hair_moved", "s.strips", &moved, &doubled);
+    let Some(g) = gpu("hair_drawn_with_a_model_matrix_matches_the_hair_baked_there") else { return };
+    let size = (160u32, 120u32);
+    let mut options = HairOptions { resolution: 128, ..HairOptions::new(COLOR_FORMAT, size) };
+    options.draw.depth_format = Some(DEPTH_FORMAT);
+    let upload =
+        |dir: &Dir| GpuBundle::upload(&g.device, &g.queue, &CpuBundle::read(&dir.path("bundle")).unwrap()).unwrap();
+    let (a, b) = (upload(&here), upload(&there));
+    let drawn = HairRenderer::new(&g.device, &g.queue, &a, "s.strips", &options).unwrap();
+    let baked = HairRenderer::new(&g.device, &g.queue, &b, "s.strips", &options).unwrap();
+    let to_light = Vec3::new(0.3, 1.0, 0.4);
+    let centre = model.transform_point3(Vec3::new(0.0, 0.3, 0.0));
+    let eye = centre + Vec3::new(1.5, 3.0, 6.0);
+    let camera = directx::perspective(45f32.to_radians(), size.0 as f32 / size.1 as f32, 0.5, 30.0)
+        * look_at_mat4(eye, centre, Vec3::Y);
+    let light = drawn.light_at(model, to_light);
+    assert!(light.view_proj.abs_diff_eq(baked.light(to_light).view_proj, 1e-4), "the light follows the hair");
+    let frames = [
+        HairFrame { model, ambient: Vec3::splat(0.2), ..HairFrame::new(camera, eye, light) },
+        HairFrame { ambient: Vec3::splat(0.2), ..HairFrame::new(camera, eye, baked.light(to_light)) },
+    ];
+    // A ground under the moved hair, receiving its shadow.
+    let y = model.transform_point3(Vec3::new(0.0, -0.4, 0.0)).y;
+    let corners = [(-4.0, -4.0), (-4.0, 4.0), (4.0, 4.0), (4.0, -4.0)]
+        .map(|(x, z)| centre + Vec3::new(x, 0.0, z))
+        .map(|p| Vec3::new(p.x, y, p.z));
+    for blend in [HairBlend::OrderIndependent, HairBlend::Opaque] {
+        let images: Vec<Vec<u8>> = [(&drawn, &frames[0]), (&baked, &frames[1])]
+            .into_iter()
+            .map(|(renderer, frame)| {
+                renderer.update(&g.queue, frame);
+                let ground = Ground::new(&g, renderer, corners);
+                render_frame(&g, renderer, Some((&ground, camera)), blend, size, wgpu::Color::BLACK)
+            })
+            .collect();
+        let pixels = (size.0 * size.1) as usize;
+        let agree =
+            (0..pixels).filter(|&i| (0..3).all(|k| images[0][4 * i + k].abs_diff(images[1][4 * i + k]) <= 1)).count();
+        let hair = (0..pixels).filter(|&i| images[1][4 * i..4 * i + 3] != [0, 0, 0]).count();
+        eprintln!("{blend:?}: {agree} of {pixels} pixels within 1/255 ({hair} drawn)");
+        assert!(hair > pixels / 4, "the hair and the ground fill part of the image");
+        assert!(agree as f64 >= 0.999 * pixels as f64, "{blend:?}: {agree} of {pixels}");
     }
 }
 

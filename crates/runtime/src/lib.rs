@@ -189,7 +189,7 @@ mod wgsl_tests {
                 layout!(HairUniform; light, light_inverse, bounds_min, bounds_max, camera, eye, to_light, light_color,
                     ambient, root_tint, tip_tint, step, opacity_set, resolution, specular_power, specular, layer_rule,
                     lookup, max_width, width_ratio, alpha_ratio, taper, min_pixel_width, viewport, depth_range,
-                    camera_widen, light_widen, color_variation, oit_falloff),
+                    camera_widen, light_widen, color_variation, oit_falloff, model, model_width),
             ),
         ];
         let sources = sources();

@@ -53,7 +53,8 @@ pub fn strand_variation(u: &HairUniform, id: u32) -> f32 {
     1.0 + u.color_variation * (h as f32 / 4_294_967_295.0 - 0.5)
 }
 
-/// `hair_point` of the WGSL.
+/// `hair_point` of the WGSL: the record's point in world space (through the uniform's model
+/// matrix).
 pub fn hair_point(u: &HairUniform, p: &StrandPoint, opacity_set: bool, widen: f32) -> HairPoint {
     let param = p.param();
     let mut width = p.width * (1.0 - u.taper * param) * widen;
@@ -64,10 +65,11 @@ pub fn hair_point(u: &HairUniform, p: &StrandPoint, opacity_set: bool, widen: f3
     }
     let (root, tip) = (Vec3::from_slice(&u.root_tint), Vec3::from_slice(&u.tip_tint));
     let tint = (root + (tip - root) * param) * strand_variation(u, p.strand_id);
+    let model = glam::Mat4::from_cols_array_2d(&u.model);
     HairPoint {
-        position: Vec3::from(p.position),
-        tangent: Vec3::from(p.tangent),
-        width,
+        position: model.transform_point3(Vec3::from(p.position)),
+        tangent: model.transform_vector3(Vec3::from(p.tangent)).normalize(),
+        width: width * u.model_width,
         alpha,
         color: Vec3::from(p.color) * tint,
         drawn: p.index < p.segments,

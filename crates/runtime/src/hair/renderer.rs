@@ -33,7 +33,7 @@ const DEPTH_MAP: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 const LAYERS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const REVEALAGE: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
 
-/// The `HairUniform` of the hair WGSL, as it is in the uniform buffer (400 bytes).
+/// The `HairUniform` of the hair WGSL, as it is in the uniform buffer (480 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct HairUniform {
@@ -95,6 +95,12 @@ pub struct HairUniform {
     pub color_variation: f32,
     /// The blend's weight falloff: the hair's optical depth across its box.
     pub oit_falloff: f32,
+    /// The hair's frame (its coordinates as baked) → world, column-major ([`HairFrame::model`]).
+    pub model: [[f32; 4]; 4],
+    /// Factor on strand widths from `model`: the cube root of its 3×3 determinant.
+    pub model_width: f32,
+    /// Padding to the WGSL struct's 16-byte alignment.
+    pub _pad: [f32; 3],
 }
 
 /// How receivers read the opacity maps.
@@ -178,6 +184,11 @@ impl Default for HairStyle {
 /// What changes from frame to frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HairFrame {
+    /// The hair's frame (the strands' coordinates as baked) → world: where the hair is drawn,
+    /// as the model matrix of the head or bone it sits on. Widths scale with it (by the cube
+    /// root of its determinant); the light ([`HairRenderer::light_at`]) must be fitted with the
+    /// same matrix. `Mat4::IDENTITY` draws the hair where it was baked.
+    pub model: Mat4,
     /// World → camera clip (wgpu: depth 0..1).
     pub camera: Mat4,
     /// The camera's position, world space (strips face it).
@@ -213,6 +224,7 @@ impl HairFrame {
     /// levels of detail.
     pub fn new(camera: Mat4, eye: Vec3, light: HairLight) -> HairFrame {
         HairFrame {
+            model: Mat4::IDENTITY,
             camera,
             eye,
             light,
@@ -457,9 +469,45 @@ impl HairRenderer {
     }
 
     /// An orthographic light along `to_light` fitted to the hair's bounding box (from the
-    /// asset's settings): nothing outside the box is drawn into the maps.
+    /// asset's settings) where it was baked: nothing outside the box is drawn into the maps.
     pub fn light(&self, to_light: Vec3) -> HairLight {
-        HairLight::for_bounds(Vec3::from(self.settings.bounds_min), Vec3::from(self.settings.bounds_max), to_light)
+        self.light_at(Mat4::IDENTITY, to_light)
+    }
+
+    /// The light along `to_light` (world) fitted to the hair's box carried by `model` (the
+    /// [`HairFrame::model`] the frame draws with): the maps and their receivers follow the hair.
+    ///
+    /// ```no_run
+    /// # fn f(hair: &hikage_runtime::hair::HairRenderer, head: hikage_runtime::glam::Mat4, camera: hikage_runtime::glam::Mat4, eye: hikage_runtime::glam::Vec3) {
+    /// use hikage_runtime::glam::Vec3;
+    /// use hikage_runtime::hair::HairFrame;
+    ///
+    /// // The head's world matrix this frame, from the game's animation.
+    /// let light = hair.light_at(head, Vec3::new(0.3, 1.0, 0.2));
+    /// let frame = HairFrame { model: head, ..HairFrame::new(camera, eye, light) };
+    /// # }
+    /// ```
+    pub fn light_at(&self, model: Mat4, to_light: Vec3) -> HairLight {
+        let (lo, hi) = self.bounds_at(model);
+        HairLight::for_bounds(lo, hi, to_light)
+    }
+
+    /// The world box around the hair drawn with `model`: the box of the asset's bounds carried
+    /// by it.
+    pub fn bounds_at(&self, model: Mat4) -> (Vec3, Vec3) {
+        let (lo, hi) = (Vec3::from(self.settings.bounds_min), Vec3::from(self.settings.bounds_max));
+        if model == Mat4::IDENTITY {
+            return (lo, hi);
+        }
+        (0..8).fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(a, b), k| {
+            let corner = Vec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            );
+            let p = model.transform_point3(corner);
+            (a.min(p), b.max(p))
+        })
     }
 
     /// The ids of the assets the renderer was built from (the strips): after a reload whose
@@ -485,7 +533,8 @@ impl HairRenderer {
     /// The levels of detail `frame` draws: (camera, light).
     pub fn chosen_levels(&self, frame: &HairFrame) -> (u32, u32) {
         let levels = self.levels().len() as u32;
-        let (lo, hi) = (Vec3::from(self.settings.bounds_min), Vec3::from(self.settings.bounds_max));
+        let (lo, hi) = self.bounds_at(frame.model);
+        let model_width = model_width(frame.model);
         let centre = 0.5 * (lo + hi);
         // The widest a world length at the box's centre appears, in pixels, along the axes.
         let camera_pixels = {
@@ -503,9 +552,12 @@ impl HairRenderer {
                 .fold(0.0f32, f32::max)
         };
         let texels = self.resolution as f32 / (hi - lo).max_element().max(1e-12);
-        let width = |set: HairSet| match set {
-            HairSet::Shading => self.settings.shading.0,
-            HairSet::Opacity => self.settings.opacity.0,
+        let width = |set: HairSet| {
+            model_width
+                * match set {
+                    HairSet::Shading => self.settings.shading.0,
+                    HairSet::Opacity => self.settings.opacity.0,
+                }
         };
         let pick = |lod: Lod, strip_pixels: f32| match lod {
             Lod::Level(l) => l.min(levels - 1),
@@ -537,7 +589,8 @@ impl HairRenderer {
         let s = &self.settings;
         let ratio = |a: f32, b: f32| if b > 0.0 { a / b } else { 1.0 };
         // Distances from the eye to the hair's box: the nearest point and the farthest corner.
-        let (blo, bhi) = (Vec3::from(s.bounds_min), Vec3::from(s.bounds_max));
+        let (blo, bhi) = self.bounds_at(frame.model);
+        let model_width = model_width(frame.model);
         let near = (frame.eye.clamp(blo, bhi) - frame.eye).length();
         let far = (0..8)
             .map(|k| {
@@ -582,7 +635,11 @@ impl HairRenderer {
             camera_widen: self.widen(camera_level),
             light_widen: self.widen(light_level),
             color_variation: style.color_variation,
-            oit_falloff: oit_falloff(s, far - near),
+            // The optical depth across the box is the hair's own: measured in its frame.
+            oit_falloff: oit_falloff(s, (far - near) / model_width.max(1e-12)),
+            model: frame.model.to_cols_array_2d(),
+            model_width,
+            _pad: [0.0; 3],
         }
     }
 
@@ -713,6 +770,12 @@ impl HairRenderer {
 /// over the box's volume, times the depth, doubled because hair fills about half its box (a
 /// shell around the head; the factor that brought the blend nearest the sorted composite on the
 /// four layouts of the `hair_view` example), capped where the weight floor takes over.
+/// The factor `model` puts on lengths across a strand: the cube root of its 3×3 determinant
+/// (a uniform scale's own factor).
+fn model_width(model: Mat4) -> f32 {
+    glam::Mat3::from_mat4(model).determinant().abs().cbrt()
+}
+
 fn oit_falloff(s: &StrandsSettings, depth: f32) -> f32 {
     let size = Vec3::from(s.bounds_max) - Vec3::from(s.bounds_min);
     let volume = size.x * size.y * size.z;

@@ -53,6 +53,8 @@ struct HairUniform {
     light_widen: f32,           // level of detail: width factor of the light passes
     color_variation: f32,       // per-strand brightness spread (0: none)
     oit_falloff: f32,           // the blend's weight: exp(-oit_falloff x depth across the box)
+    model: mat4x4<f32>,         // the hair's frame (as baked) -> world: where the strands are drawn
+    model_width: f32,           // factor on widths: cube root of the model's 3x3 determinant
 }
 
 @group(0) @binding(0) var<uniform> hair: HairUniform;
@@ -109,7 +111,8 @@ fn hair_strand_variation(id: u32) -> f32 {
     return 1.0 + hair.color_variation * (f32(h) / 4294967295.0 - 0.5);
 }
 
-// A record's point, in the set the pass draws (`opacity_set`), at the pass's widening.
+// A record's point in world space (through the model matrix), in the set the pass draws
+// (`opacity_set`), at the pass's widening.
 fn hair_point(position: vec3<f32>, tangent: vec2<f32>, shape: vec2<f32>, color: vec4<f32>, strand: vec2<u32>,
     id: u32, opacity_set: bool, widen: f32) -> HairPoint {
     let param = select(f32(strand.x) / f32(strand.y), 0.0, strand.y == 0u);
@@ -121,7 +124,9 @@ fn hair_point(position: vec3<f32>, tangent: vec2<f32>, shape: vec2<f32>, color: 
     }
     let tint = mix(hair.root_tint.rgb, hair.tip_tint.rgb, param) * hair_strand_variation(id);
     let linear = hair_srgb_to_linear(color.rgb) * tint;
-    return HairPoint(position, hair_oct_decode(tangent), width, alpha, linear, strand.x < strand.y);
+    let world = (hair.model * vec4<f32>(position, 1.0)).xyz;
+    let t = normalize((hair.model * vec4<f32>(hair_oct_decode(tangent), 0.0)).xyz);
+    return HairPoint(world, t, width * hair.model_width, alpha, linear, strand.x < strand.y);
 }
 
 // The segment's end this corner belongs to (corners 0, 1 at a; 2, 3 at b), and its side.

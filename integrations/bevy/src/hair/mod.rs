@@ -5,9 +5,11 @@
 //! Bevy's transparent pass the strips, expanded to face the camera, are shaded with Kajiya-Kay
 //! and blended over the scene order-independently (or drawn opaque).
 //!
-//! The hair is drawn in the bundle's coordinates (the strands' world space as baked): its
-//! entity's `Transform` does not move it. The opacity maps and their uniform are ordinary
-//! Bevy assets ([`HairShadowMaps`]), so a game's own materials can read them too.
+//! The strands' coordinates as baked are the hair's own frame, and its entity's
+//! `GlobalTransform` carries it into the world: parent the hair to a head or a joint entity and
+//! it moves with it, its opacity maps' light box and so its receivers' shadow too (strand
+//! widths scale with the transform). The opacity maps and their uniform are ordinary Bevy assets
+//! ([`HairShadowMaps`]), so a game's own materials can read them too.
 
 mod receiver;
 mod render;
@@ -62,7 +64,7 @@ pub enum HairDraw {
 /// }
 /// ```
 #[derive(Component, Clone, Debug)]
-#[require(Problems)]
+#[require(bevy_transform::components::Transform, bevy_camera::visibility::Visibility, Problems)]
 pub struct HairStrands {
     /// The bundle holding the strips.
     pub bundle: Handle<HikageBundle>,

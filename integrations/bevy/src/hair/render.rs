@@ -33,6 +33,8 @@ struct ExtractedHair {
     strips: Arc<CpuAsset>,
     hair: HairStrands,
     maps: HairShadowMaps,
+    /// The hair's frame → world: its entity's `GlobalTransform`.
+    model: glam::Mat4,
     /// Unit vector toward the light (world).
     to_light: glam::Vec3,
     /// The light's colour × illuminance / π, before the camera's exposure.
@@ -94,7 +96,7 @@ fn to_glam(c: LinearRgba) -> glam::Vec3 {
 /// Copies each hair whose bundle and maps are ready, with its light, into the render world.
 fn extract(
     mut out: ResMut<ExtractedHairs>,
-    hairs: Extract<Query<(Entity, &HairStrands, &HairShadowMaps)>>,
+    hairs: Extract<Query<(Entity, &HairStrands, &HairShadowMaps, &GlobalTransform)>>,
     bundles: Extract<Res<bevy_asset::Assets<HikageBundle>>>,
     lights: Extract<Query<(Entity, &DirectionalLight, &GlobalTransform)>>,
     ambient: Extract<Option<Res<GlobalAmbientLight>>>,
@@ -103,7 +105,7 @@ fn extract(
     let ambient = ambient.as_ref().map_or(glam::Vec3::ZERO, |a| to_glam(a.color.to_linear()) * a.brightness);
     // The scene's light for hairs that name none: the first with shadow maps, else the first.
     let first = lights.iter().min_by_key(|(e, l, _)| (!l.shadow_maps_enabled, *e));
-    for (entity, hair, maps) in &hairs {
+    for (entity, hair, maps, transform) in &hairs {
         let Some(strips) = bundles.get(&hair.bundle).and_then(|b| b.strands(&hair.strips)) else {
             continue;
         };
@@ -118,11 +120,13 @@ fn extract(
             ),
             None => (glam::Vec3::Y, glam::Vec3::ZERO),
         };
+        let model = glam::Mat4::from_cols_array(&transform.to_matrix().to_cols_array());
         out.0.push(ExtractedHair {
             entity,
             strips: strips.clone(),
             hair: hair.clone(),
             maps: maps.clone(),
+            model,
             to_light,
             light_color,
             ambient,
@@ -225,7 +229,8 @@ fn frame(h: &ExtractedHair, view: &ExtractedView, camera: &ExtractedCamera, rend
         min_pixel_width: hair.min_pixel_width,
         lod: hair.lod,
         style: hair.style.into(),
-        ..HairFrame::new(camera_matrix, eye, renderer.light(h.to_light))
+        model: h.model,
+        ..HairFrame::new(camera_matrix, eye, renderer.light_at(h.model, h.to_light))
     }
 }
 
