@@ -169,15 +169,18 @@ fn horizon_rows() {
             }),
         ),
     ];
+    let mut by_elevation = Vec::new();
     for (name, store) in cases {
         let (mut errors, mut flips, mut leaks) = (Vec::with_capacity(beta.len()), 0usize, 0usize);
+        let mut flips_at = [0usize; ELEVATIONS.len()];
         for slice in beta.chunks_exact(w * h) {
             for (&b, stored) in slice.iter().zip(store(slice)) {
                 let got = (stored / 255.0 - 0.5) * std::f64::consts::PI;
                 errors.push((got - b).abs().to_degrees() as f32);
-                for e in ELEVATIONS.map(f64::to_radians) {
+                for (k, e) in ELEVATIONS.map(f64::to_radians).into_iter().enumerate() {
                     if (e > b) != (e > got) {
                         flips += 1;
+                        flips_at[k] += 1;
                         leaks += (e > got) as usize;
                     }
                 }
@@ -185,10 +188,21 @@ fn horizon_rows() {
         }
         errors.sort_by(f32::total_cmp);
         println!(
-            "| {name} | {:.2}° | {:.2}° | {flips} | {leaks} |",
+            "| {name} | {:.2}° | {:.2}° | {flips} ({:.2}%) | {leaks} |",
             errors.last().copied().unwrap_or(0.0),
-            errors[errors.len() * 99 / 100]
+            errors[errors.len() * 99 / 100],
+            100.0 * flips as f64 / (beta.len() * ELEVATIONS.len()) as f64
         );
+        by_elevation.push((name, flips_at));
+    }
+    // The average hides the low suns, where horizons are tested at the angles they are stored
+    // at and most flips happen: each sun on its own.
+    println!("\nShadow tests flipped at each sun elevation (share of {} tests per sun):\n", beta.len());
+    println!("| storage |{}", ELEVATIONS.map(|e| format!(" sun {e}° |")).concat());
+    println!("|---|{}", "---|".repeat(ELEVATIONS.len()));
+    for (name, flips_at) in by_elevation {
+        let cells = flips_at.map(|f| format!(" {:.2}% |", 100.0 * f as f64 / beta.len() as f64)).concat();
+        println!("| {name} |{cells}");
     }
     println!();
 }
