@@ -9,7 +9,6 @@
 mod common;
 
 use bevy::prelude::*;
-use bevy::render::view::Msaa;
 use hikage_bevy::hair::{HairReceiver, HairStrands};
 
 fn main() {
@@ -48,9 +47,9 @@ fn setup(mut commands: Commands, assets: Res<AssetServer>, mut meshes: ResMut<As
         DirectionalLight { illuminance: 9_000.0, shadow_maps_enabled: true, ..default() },
         Transform::default().looking_to(-Vec3::new(0.45, 1.0, 0.3), Vec3::Y),
     ));
+    // Bevy's default camera (MSAA 4×): the hair needs no camera setting.
     commands.spawn((
         Camera3d::default(),
-        Msaa::Off,
         Transform::from_xyz(52.0, 26.0, 72.0).looking_at(Vec3::new(6.0, -2.0, 0.0), Vec3::Y),
     ));
 }

@@ -366,3 +366,69 @@ fn hair_follows_its_entity_as_if_baked_there() {
     assert!(changed > 2000, "the hair and its shadow change part of the frame");
     assert!(agree as f64 >= 0.999 * n as f64, "{agree} of {n}");
 }
+
+/// Bevy's default camera has MSAA 4×: the hair (blended, against the scene's depth resolved to
+/// one sample per pixel) and its shadow on a receiver draw there as with `Msaa::Off`, and a post
+/// in front of the hair still hides it.
+#[test]
+fn hair_and_its_shadow_draw_in_a_camera_with_msaa() {
+    use bevy::render::view::Msaa;
+    if !gpu_or_skip("hair_and_its_shadow_draw_in_a_camera_with_msaa") {
+        return;
+    }
+    let (dir, _) = hair_bundle();
+    let view = Transform::from_xyz(0.4, 1.6, 2.8).looking_at(Vec3::new(0.0, 0.2, 0.0), Vec3::Y);
+    let projection = Projection::Perspective(PerspectiveProjection { fov: 45f32.to_radians(), near: 0.1, ..default() });
+    let MaskScene { mut app, target, .. } =
+        MaskScene::new(&dir, SIZE, Vec3::new(0.3, 1.0, 0.4).normalize(), view, projection);
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    let world = app.world();
+    let (plane, post) = {
+        let mut meshes = world.resource_mut::<Assets<Mesh>>();
+        (meshes.add(Plane3d::default().mesh().size(4.0, 4.0)), meshes.add(Cuboid::new(0.15, 4.0, 0.15)))
+    };
+    let red = world.resource_mut::<Assets<StandardMaterial>>().add(StandardMaterial {
+        base_color: Color::srgb(0.8, 0.1, 0.1),
+        unlit: true,
+        ..default()
+    });
+    let hair = world.spawn(HairStrands::new(bundle, "head.strips")).id();
+    let ground = world.spawn((Mesh3d(plane), Transform::from_xyz(0.0, GROUND, 0.0), HairReceiver::new(hair))).id();
+    world.spawn((Mesh3d(post), MeshMaterial3d(red), Transform::from_xyz(0.25, 0.0, 1.2)));
+    let built = app.update_until(600, |w| w.get::<MeshMaterial3d<HairReceiverMaterial>>(ground).is_some());
+    assert!(built, "the receiver was not built");
+    let camera = app.world().query_filtered::<Entity, With<Camera>>().single(app.world()).unwrap();
+    let frame = |app: &mut common::Headless, msaa: Msaa, draw: HairDraw| {
+        app.world().entity_mut(camera).insert(msaa);
+        app.world().get_mut::<HairStrands>(hair).unwrap().draw = draw;
+        let mut image = app.capture_bytes(&target);
+        for _ in 0..10 {
+            let next = app.capture_bytes(&target);
+            if next == image {
+                break;
+            }
+            image = next;
+        }
+        image
+    };
+    let off = frame(&mut app, Msaa::Off, HairDraw::Blended);
+    let bare_off = frame(&mut app, Msaa::Off, HairDraw::ShadowsOnly);
+    let msaa = frame(&mut app, Msaa::Sample4, HairDraw::Blended);
+    let bare = frame(&mut app, Msaa::Sample4, HairDraw::ShadowsOnly);
+    let n = off.len();
+    let agree = off.iter().zip(&msaa).filter(|(a, b)| (0..3).all(|k| a[k].abs_diff(b[k]) <= 2)).count();
+    let shown = |with: &[[u8; 4]], without: &[[u8; 4]]| {
+        with.iter().zip(without).filter(|(a, b)| (0..3).any(|k| a[k].abs_diff(b[k]) > 8)).count()
+    };
+    let (hair_shown, hair_off) = (shown(&msaa, &bare), shown(&off, &bare_off));
+    // The post's pixels (unlit red) are the same with and without the hair: it hides the hair.
+    let post_pixels = bare.iter().filter(|p| p[0] > 180 && p[1] < 60).count();
+    let post_kept = bare.iter().zip(&msaa).filter(|(b, m)| b[0] > 180 && b[1] < 60 && b == m).count();
+    eprintln!(
+        "bevy hair with MSAA 4x: {agree} of {n} pixels within 2/255 of Msaa::Off; hair shown on {hair_shown} pixels \
+         ({hair_off} without MSAA); the post keeps {post_kept} of {post_pixels} pixels"
+    );
+    assert!(hair_shown > 2000 && hair_shown as f64 >= 0.97 * hair_off as f64, "the hair is drawn with MSAA");
+    assert!(agree as f64 >= 0.98 * n as f64, "{agree} of {n}");
+    assert!(post_pixels > 500 && post_kept as f64 >= 0.97 * post_pixels as f64, "the post hides the hair");
+}

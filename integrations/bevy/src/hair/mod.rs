@@ -46,8 +46,8 @@ pub enum HairDraw {
 /// Draws a bundle's hair (a `Strands` asset, the strips `hikage bake` writes from a `.hair`
 /// file) and renders its deep opacity maps each frame, lit by a directional light.
 ///
-/// Cameras drawing hair need `Msaa::Off` (the blend's targets are single-sampled); a camera
-/// with MSAA on skips the hair and says so once in the log. The light is `light`, or else the
+/// Any camera draws it, with MSAA (Bevy's default) or without: with MSAA the hair is tested
+/// against the camera's depth resolved to one sample per pixel. The light is `light`, or else the
 /// first directional light with shadow maps (else the first one); its colour × illuminance / π
 /// lights the strips as Bevy lights a matte surface, and the scene's `GlobalAmbientLight` is
 /// their ambient light, both scaled by the camera's exposure.

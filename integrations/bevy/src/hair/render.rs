@@ -7,6 +7,7 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 use bevy_app::App;
+use bevy_camera::Camera3d;
 use bevy_color::{ColorToComponents, LinearRgba};
 use bevy_core_pipeline::{Core3d, Core3dSystems};
 use bevy_ecs::prelude::*;
@@ -56,14 +57,147 @@ struct ViewHair {
     size: (u32, u32),
 }
 
-/// The renderers by (hair, camera), the strips uploaded by hair, the cameras told once that
-/// MSAA hides the hair, and the hairs (with their records) that failed to build, said once.
+/// The renderers by (hair, camera), the strips uploaded by hair, the hairs (with their
+/// records) that failed to build, said once, and for cameras with MSAA the depth the hair tests
+/// against.
 #[derive(Resource, Default)]
 struct HairRenderers {
     views: HashMap<(Entity, Entity), ViewHair>,
     uploads: HashMap<Entity, (usize, GpuBundle)>,
-    warned: Vec<Entity>,
     failed: Vec<(Entity, usize)>,
+    resolve: Option<DepthResolve>,
+    resolved: HashMap<Entity, wgpu::Texture>,
+}
+
+/// The depth a camera with MSAA gives the hair: its multisampled depth resolved to one sample
+/// per pixel, the nearest of the pixel's samples, so the single-sampled blend (and the opaque
+/// draw) test against it and composite onto the resolved main texture. Hair is then hidden
+/// wherever any sample of a pixel is covered by nearer geometry (never drawn over a nearer
+/// edge).
+struct DepthResolve {
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+}
+
+/// The resolve: a full-screen triangle writing each pixel's nearest sample as its depth.
+const RESOLVE_WGSL: &str = r#"
+@group(0) @binding(0) var scene_depth: texture_depth_multisampled_2d;
+
+@vertex
+fn vs(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+    return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
+}
+
+// Bevy's depth is reversed (1 near, 0 far): the nearest sample is the largest.
+@fragment
+fn fs(@builtin(position) p: vec4<f32>) -> @builtin(frag_depth) f32 {
+    let ij = vec2<i32>(p.xy);
+    var d = 0.0;
+    for (var s = 0u; s < textureNumSamples(scene_depth); s = s + 1u) {
+        d = max(d, textureLoad(scene_depth, ij, i32(s)));
+    }
+    return d;
+}
+"#;
+
+impl DepthResolve {
+    fn new(device: &wgpu::Device) -> DepthResolve {
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("hikage hair depth resolve"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Depth,
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: true,
+                },
+                count: None,
+            }],
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("hikage hair depth resolve"),
+            source: wgpu::ShaderSource::Wgsl(RESOLVE_WGSL.into()),
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("hikage hair depth resolve"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("hikage hair depth resolve"),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Always),
+                stencil: wgpu::StencilState::default(),
+                bias: wgpu::DepthBiasState::default(),
+            }),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs"),
+                compilation_options: Default::default(),
+                targets: &[],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        DepthResolve { pipeline, layout }
+    }
+
+    /// Records the resolve of `msaa_depth` into `resolved`.
+    fn record(
+        &self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        msaa_depth: &wgpu::TextureView,
+        resolved: &wgpu::TextureView,
+    ) {
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("hikage hair depth resolve"),
+            layout: &self.layout,
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(msaa_depth) }],
+        });
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("hikage hair depth resolve"),
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: resolved,
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            ..Default::default()
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+}
+
+/// Bevy's depth format, which the hair's camera passes test against.
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// Makes the depth of every camera with MSAA readable while hair is drawn (the resolve samples
+/// it), on the render world's copy of its `Camera3d`: the game's camera is left as it is.
+fn readable_msaa_depth(hairs: Res<ExtractedHairs>, mut cameras: Query<(&mut Camera3d, &Msaa)>) {
+    if hairs.0.is_empty() {
+        return;
+    }
+    for (mut camera, msaa) in &mut cameras {
+        let usage = wgpu::TextureUsages::from(camera.depth_texture_usages);
+        if msaa.samples() > 1 && !usage.contains(wgpu::TextureUsages::TEXTURE_BINDING) {
+            camera.depth_texture_usages = (usage | wgpu::TextureUsages::TEXTURE_BINDING).into();
+        }
+    }
 }
 
 pub(super) fn build(app: &mut App) {
@@ -74,6 +208,7 @@ pub(super) fn build(app: &mut App) {
         .init_resource::<ExtractedHairs>()
         .init_resource::<HairRenderers>()
         .add_systems(ExtractSchedule, extract)
+        .add_systems(Render, readable_msaa_depth.in_set(RenderSystems::PrepareViews))
         .add_systems(Render, prepare.in_set(RenderSystems::PrepareResources))
         .add_systems(
             Core3d,
@@ -146,7 +281,7 @@ fn prepare(
 ) {
     let (device, queue): (&wgpu::Device, &wgpu::Queue) = (device.wgpu_device(), &queue);
     let renderers = &mut *renderers;
-    let mut live = Vec::new();
+    let (mut live, mut live_views) = (Vec::new(), Vec::new());
     for h in &hairs.0 {
         let strips_id = h.hair.strips.as_str();
         if renderers.failed.contains(&(h.entity, key(&h.strips))) {
@@ -163,21 +298,32 @@ fn prepare(
         }
         let mut uniform_written = false;
         for (view, extracted, camera, target, msaa) in &views {
-            if msaa.samples() != 1 {
-                if !renderers.warned.contains(&view) {
-                    renderers.warned.push(view);
-                    bevy_log::warn!("hikage: hair `{strips_id}` is not drawn by a camera with MSAA on: use Msaa::Off");
-                }
-                continue;
-            }
             let Some(size) = camera.physical_target_size else { continue };
+            if msaa.samples() > 1 {
+                renderers.resolve.get_or_insert_with(|| DepthResolve::new(device));
+                let fits = renderers.resolved.get(&view).is_some_and(|t| (t.width(), t.height()) == (size.x, size.y));
+                if !fits {
+                    let texture = device.create_texture(&wgpu::TextureDescriptor {
+                        label: Some("hikage hair resolved depth"),
+                        size: wgpu::Extent3d { width: size.x, height: size.y, depth_or_array_layers: 1 },
+                        mip_level_count: 1,
+                        sample_count: 1,
+                        dimension: wgpu::TextureDimension::D2,
+                        format: DEPTH_FORMAT,
+                        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                        view_formats: &[],
+                    });
+                    renderers.resolved.insert(view, texture);
+                }
+                live_views.push(view);
+            }
             let format = target.main_texture_format();
             let built_for = (key(&h.strips), h.maps.resolution, format);
             let slot = (h.entity, view);
             if renderers.views.get(&slot).is_none_or(|v| v.built_for != built_for) {
                 let mut options = HairOptions::new(format, (size.x, size.y));
                 options.resolution = h.maps.resolution;
-                options.draw.depth_format = Some(wgpu::TextureFormat::Depth32Float);
+                options.draw.depth_format = Some(DEPTH_FORMAT);
                 options.draw.depth_compare = wgpu::CompareFunction::GreaterEqual;
                 match HairRenderer::new(device, queue, &renderers.uploads[&h.entity].1, strips_id, &options) {
                     Ok(renderer) => {
@@ -207,6 +353,7 @@ fn prepare(
         }
     }
     renderers.views.retain(|slot, _| live.contains(slot));
+    renderers.resolved.retain(|view, _| live_views.contains(view));
     let hair_entities: Vec<Entity> = hairs.0.iter().map(|h| h.entity).collect();
     renderers.uploads.retain(|e, _| hair_entities.contains(e));
     renderers.failed.retain(|(e, _)| hair_entities.contains(e));
@@ -267,15 +414,30 @@ fn opacity_maps(
 /// Draws each hair over the camera's scene: blended (the accumulation pass, then the composite
 /// onto the main texture) or opaque (into the main texture and its depth).
 fn strips(
-    view: ViewQuery<(Entity, &ViewTarget, &ViewDepthStencilTexture)>,
+    view: ViewQuery<(Entity, &ViewTarget, &ViewDepthStencilTexture, &Msaa)>,
     hairs: Res<ExtractedHairs>,
     renderers: Res<HairRenderers>,
     mut ctx: RenderContext,
 ) {
-    let (entity, target, depth) = view.into_inner();
-    let depth_view: &wgpu::TextureView = &depth.attachment.texture.default_view;
+    let (entity, target, depth, msaa) = view.into_inner();
+    if for_view(&hairs, &renderers, entity).next().is_none() {
+        return;
+    }
+    let scene_depth: &wgpu::TextureView = &depth.attachment.texture.default_view;
+    // The main texture is the resolved one once the main pass is over, MSAA or not.
     let color_view: &wgpu::TextureView = target.main_texture_view();
+    let device = ctx.render_device().wgpu_device().clone();
     let encoder = ctx.command_encoder();
+    let resolved = match (msaa.samples() > 1, &renderers.resolve, renderers.resolved.get(&entity)) {
+        (false, ..) => None,
+        (true, Some(resolve), Some(texture)) => {
+            let resolved = texture.create_view(&Default::default());
+            resolve.record(&device, encoder, scene_depth, &resolved);
+            Some(resolved)
+        }
+        (true, ..) => return, // prepared next frame
+    };
+    let depth_view = resolved.as_ref().unwrap_or(scene_depth);
     for (h, renderer) in for_view(&hairs, &renderers, entity) {
         let load = wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store };
         let color = [Some(wgpu::RenderPassColorAttachment {
