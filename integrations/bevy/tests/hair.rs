@@ -432,3 +432,68 @@ fn hair_and_its_shadow_draw_in_a_camera_with_msaa() {
     assert!(agree as f64 >= 0.98 * n as f64, "{agree} of {n}");
     assert!(post_pixels > 500 && post_kept as f64 >= 0.97 * post_pixels as f64, "the post hides the hair");
 }
+
+/// A camera drawing into part of its target (a split screen's right half) gets its hair there
+/// only: the half equals the same camera drawing a target of the half's size, and the other
+/// half keeps the clear colour.
+#[test]
+fn hair_keeps_to_a_cameras_viewport() {
+    use bevy::camera::{RenderTarget, Viewport};
+    if !gpu_or_skip("hair_keeps_to_a_cameras_viewport") {
+        return;
+    }
+    let (dir, _) = hair_bundle();
+    let view = Transform::from_xyz(0.4, 1.6, 2.8).looking_at(Vec3::new(0.0, 0.2, 0.0), Vec3::Y);
+    let projection = Projection::Perspective(PerspectiveProjection { fov: 45f32.to_radians(), near: 0.1, ..default() });
+    let MaskScene { mut app, target, .. } =
+        MaskScene::new(&dir, SIZE, Vec3::new(0.3, 1.0, 0.4).normalize(), view, projection);
+    app.world().insert_resource(ClearColor(Color::srgb(0.0, 0.0, 1.0)));
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    let plane = app.world().resource_mut::<Assets<Mesh>>().add(Plane3d::default().mesh().size(4.0, 4.0));
+    let hair = app.world().spawn(HairStrands::new(bundle, "head.strips")).id();
+    let ground =
+        app.world().spawn((Mesh3d(plane), Transform::from_xyz(0.0, GROUND, 0.0), HairReceiver::new(hair))).id();
+    let built = app.update_until(600, |w| w.get::<MeshMaterial3d<HairReceiverMaterial>>(ground).is_some());
+    assert!(built, "the receiver was not built");
+    let camera = app.world().query_filtered::<Entity, With<Camera>>().single(app.world()).unwrap();
+    let settled = |app: &mut common::Headless, target: &Handle<Image>| {
+        let mut image = app.capture_bytes(target);
+        for _ in 0..10 {
+            let next = app.capture_bytes(target);
+            if next == image {
+                break;
+            }
+            image = next;
+        }
+        image
+    };
+    let half = SIZE / 2;
+    let viewport =
+        Viewport { physical_position: UVec2::new(half, 0), physical_size: UVec2::new(half, SIZE), ..default() };
+    app.world().get_mut::<Camera>(camera).unwrap().viewport = Some(viewport);
+    let split = settled(&mut app, &target);
+    let narrow = app.target(half, SIZE);
+    app.world().get_mut::<Camera>(camera).unwrap().viewport = None;
+    app.world().entity_mut(camera).insert(RenderTarget::from(narrow.clone()));
+    let alone = settled(&mut app, &narrow);
+    let (mut agree, mut hair_pixels) = (0, 0);
+    for row in 0..SIZE as usize {
+        for col in 0..half as usize {
+            let (a, b) = (split[row * SIZE as usize + half as usize + col], alone[row * half as usize + col]);
+            agree += (0..3).all(|k| a[k].abs_diff(b[k]) <= 2) as usize;
+            hair_pixels += (b[0] > 40 && b[2] < 200) as usize;
+        }
+    }
+    let outside = (0..SIZE as usize)
+        .flat_map(|row| (0..half as usize).map(move |col| row * SIZE as usize + col))
+        .filter(|&i| split[i][..3] != [0, 0, 255])
+        .count();
+    let n = (half * SIZE) as usize;
+    eprintln!(
+        "bevy hair in a viewport: {agree} of {n} pixels within 2/255 of the camera alone ({hair_pixels} not sky); \
+         {outside} pixels drawn outside it"
+    );
+    assert!(hair_pixels > 2000, "the hair and ground fill part of the viewport");
+    assert!(agree as f64 >= 0.995 * n as f64, "{agree} of {n}");
+    assert_eq!(outside, 0, "nothing is drawn outside the viewport");
+}

@@ -216,6 +216,11 @@ pub struct HairFrame {
     pub lod: HairLod,
     /// Gradient, taper and variation.
     pub style: HairStyle,
+    /// The part of the frame the camera draws, `[x, y, width, height]` in pixels of the target
+    /// (a split screen's half, a picture in picture); `None` for the whole frame. The camera
+    /// passes, the composite and the opaque draw keep to it, and strip widths in pixels are
+    /// the viewport's.
+    pub viewport: Option<[u32; 4]>,
 }
 
 impl HairFrame {
@@ -237,6 +242,7 @@ impl HairFrame {
             min_pixel_width: 1.0,
             lod: HairLod::default(),
             style: HairStyle::default(),
+            viewport: None,
         }
     }
 }
@@ -330,6 +336,9 @@ pub struct HairRenderer {
     accum_format: wgpu::TextureFormat,
     /// The levels [`update`](HairRenderer::update) chose: camera, light.
     drawn: [AtomicU32; 2],
+    /// The viewport of the last [`update`](Self::update): x, y, width, height (width 0: the
+    /// whole frame).
+    viewport: [AtomicU32; 4],
 }
 
 #[derive(Debug)]
@@ -465,6 +474,7 @@ impl HairRenderer {
             size: options.size,
             accum_format,
             drawn: [AtomicU32::new(0), AtomicU32::new(0)],
+            viewport: Default::default(),
         })
     }
 
@@ -539,7 +549,8 @@ impl HairRenderer {
         // The widest a world length at the box's centre appears, in pixels, along the axes.
         let camera_pixels = {
             let c0 = frame.camera * centre.extend(1.0);
-            let size = Vec3::new(self.size.0 as f32, self.size.1 as f32, 0.0);
+            let [_, _, w, h] = self.viewport_of(frame);
+            let size = Vec3::new(w as f32, h as f32, 0.0);
             [Vec3::X, Vec3::Y, Vec3::Z]
                 .into_iter()
                 .map(|axis| {
@@ -630,7 +641,10 @@ impl HairRenderer {
             alpha_ratio: ratio(s.opacity.1, s.shading.1),
             taper: style.taper.unwrap_or(s.taper),
             min_pixel_width: frame.min_pixel_width,
-            viewport: [self.size.0 as f32, self.size.1 as f32],
+            viewport: {
+                let [_, _, w, h] = self.viewport_of(frame);
+                [w as f32, h as f32]
+            },
             depth_range: [near, far],
             camera_widen: self.widen(camera_level),
             light_widen: self.widen(light_level),
@@ -649,6 +663,9 @@ impl HairRenderer {
         let (camera, light) = self.chosen_levels(frame);
         self.drawn[0].store(camera, Ordering::Relaxed);
         self.drawn[1].store(light, Ordering::Relaxed);
+        for (slot, v) in self.viewport.iter().zip(self.viewport_of(frame)) {
+            slot.store(v, Ordering::Relaxed);
+        }
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.uniform(frame)));
     }
 
@@ -719,20 +736,44 @@ impl HairRenderer {
             }),
             ..Default::default()
         });
+        self.keep_to_viewport(&mut pass);
         self.draw_strips(&mut pass, &self.pipelines.oit, &self.receiver_group, CAMERA);
     }
 
+    /// `frame`'s viewport within the frame targets (the whole frame when it has none).
+    fn viewport_of(&self, frame: &HairFrame) -> [u32; 4] {
+        let (w, h) = self.size;
+        match frame.viewport {
+            Some([x, y, vw, vh]) => {
+                let (x, y) = (x.min(w.saturating_sub(1)), y.min(h.saturating_sub(1)));
+                [x, y, vw.clamp(1, w - x), vh.clamp(1, h - y)]
+            }
+            None => [0, 0, w, h],
+        }
+    }
+
+    /// Sets the last update's viewport on `pass`.
+    fn keep_to_viewport(&self, pass: &mut wgpu::RenderPass<'_>) {
+        let [x, y, w, h] = self.viewport.each_ref().map(|v| v.load(Ordering::Relaxed) as f32);
+        if w > 0.0 && h > 0.0 {
+            pass.set_viewport(x, y, w, h, 0.0, 1.0);
+        }
+    }
+
     /// Blends the hair accumulated by [`render_hair`](Self::render_hair) over the game's colour
-    /// target in `pass`, a pass with that one colour attachment and no depth attachment.
+    /// target in `pass`, a pass with that one colour attachment and no depth attachment (it sets
+    /// the frame's viewport on the pass).
     pub fn composite(&self, pass: &mut wgpu::RenderPass<'_>) {
+        self.keep_to_viewport(pass);
         pass.set_pipeline(&self.pipelines.composite);
         pass.set_bind_group(self.group, &self.composite_group, &[]);
         pass.draw(0..3, 0..1);
     }
 
     /// Draws the shading set opaque into `pass` (the game's colour target and depth), the
-    /// alternative to the order-independent blend.
+    /// alternative to the order-independent blend (it sets the frame's viewport on the pass).
     pub fn draw_opaque(&self, pass: &mut wgpu::RenderPass<'_>) {
+        self.keep_to_viewport(pass);
         self.draw_strips(pass, &self.pipelines.opaque, &self.receiver_group, CAMERA);
     }
 

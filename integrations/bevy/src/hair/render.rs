@@ -377,6 +377,10 @@ fn frame(h: &ExtractedHair, view: &ExtractedView, camera: &ExtractedCamera, rend
         lod: hair.lod,
         style: hair.style.into(),
         model: h.model,
+        viewport: camera.viewport.as_ref().map(|v| {
+            let (p, s) = (v.physical_position, v.physical_size);
+            [p.x, p.y, s.x, s.y]
+        }),
         ..HairFrame::new(camera_matrix, eye, renderer.light_at(h.model, h.to_light))
     }
 }
