@@ -580,3 +580,23 @@ fn compression_levels_keep_the_data_and_shrink_the_files() {
         stdout(&out)
     );
 }
+
+/// The same pipeline baked in two checkouts gives byte-identical bundles, every file included
+/// (the owner record is the pipeline's path relative to the bundle, not the machine's path),
+/// and the record still keeps a second pipeline from replacing the bundle.
+#[test]
+fn two_checkouts_bake_byte_identical_bundles_and_ownership_holds() {
+    let pipeline = r#"(output: "out/bundle", jobs: [Heightfield(id: "t", input: "data/cylinders.png")])"#;
+    let (a, b) = (Dir::with_pipeline("checkout_a", pipeline), Dir::with_pipeline("checkout_b", pipeline));
+    a.run(&["bake"]);
+    b.run(&["bake"]);
+    assert_eq!(snapshot(&a.path("out/bundle")), snapshot(&b.path("out/bundle")));
+    assert_eq!(a.read("out/bundle/.hikage-owner"), b"../../pipeline.ron\n");
+
+    a.write("other.ron", pipeline);
+    let out = a.run_expecting(&["bake", "other.ron"], 1);
+    // Both named as the bundle's path names them (here relative to the working directory).
+    assert!(stderr(&out).contains("belongs to the pipeline pipeline.ron, and other.ron may not"), "{}", stderr(&out));
+    a.run(&["bake", "other.ron", "--force"]);
+    assert_eq!(a.read("out/bundle/.hikage-owner"), b"../../other.ron\n");
+}

@@ -133,8 +133,7 @@ fn run_jobs(loaded: &LoadedPipeline, options: &RunOptions, mode: WriteMode) -> R
     if mode == WriteMode::Replace {
         // A pipeline owns its bundle: another pipeline's is refused by name at the commit,
         // unless that pipeline file is gone (a moved checkout) or --force takes the bundle over.
-        let owner = std::fs::canonicalize(&loaded.path).unwrap_or_else(|_| loaded.path.clone());
-        writer.set_owner(&owner.display().to_string(), options.force);
+        writer.set_owner(&owner_record(&out, &loaded.path), options.force);
     }
     let mut report = RunReport { bundle: out.clone(), ..Default::default() };
     report.watched.push(loaded.path.clone());
@@ -310,4 +309,26 @@ pub fn check_pipeline(path: &Path, observer: &dyn Observer) -> Result<PipelineCh
         observer.job_finished(job.id(), false);
     }
     Ok(check)
+}
+
+/// How bundle `bundle` records `pipeline` as its owner: the pipeline's path relative to the
+/// bundle directory (`../pipeline.ron`), both canonical, with `/` between parts. The same
+/// pipeline baked in two checkouts then writes the same record, and a shipped bundle carries no
+/// machine's path; where no relative path exists (another drive) the canonical path is kept.
+fn owner_record(bundle: &Path, pipeline: &Path) -> String {
+    let canonical = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
+    let pipeline = canonical(pipeline);
+    // The bundle may not exist yet: its parent does once the writer has opened it.
+    let bundle = match (bundle.parent(), bundle.file_name()) {
+        (Some(parent), Some(name)) if !bundle.exists() => canonical(parent).join(name),
+        _ => canonical(bundle),
+    };
+    let (from, to): (Vec<_>, Vec<_>) = (bundle.components().collect(), pipeline.components().collect());
+    let common = from.iter().zip(&to).take_while(|(a, b)| a == b).count();
+    if common == 0 {
+        return pipeline.display().to_string();
+    }
+    let up = std::iter::repeat_n("..".to_string(), from.len() - common);
+    let down = to[common..].iter().map(|c| c.as_os_str().to_string_lossy().into_owned());
+    up.chain(down).collect::<Vec<_>>().join("/")
 }

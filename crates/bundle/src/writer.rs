@@ -161,9 +161,9 @@ impl BundleWriter {
         read_owner(&self.dir)
     }
 
-    /// Commits as `owner` (the path of a pipeline file): the commit is refused when another
-    /// owner is recorded whose file still exists, unless `take_over`, and records `owner`
-    /// afterwards. Two pipelines sharing one output then fail by name instead of the last writer
+    /// Commits as `owner` (the path of a pipeline file, relative to the bundle directory or
+    /// absolute): the commit is refused when another owner is recorded whose file still exists,
+    /// unless `take_over`, and records `owner` afterwards. Two pipelines sharing one output then fail by name instead of the last writer
     /// silently winning; a checkout that moved takes its bundle back.
     pub fn set_owner(&mut self, owner: &str, take_over: bool) {
         self.owner = Some((owner.to_string(), take_over));
@@ -357,13 +357,15 @@ impl BundleWriter {
             Err(fs::TryLockError::Error(e)) => return Err(BundleError::io(&lock_path, e)),
         }
 
-        // 0. Whose bundle it is.
+        // 0. Whose bundle it is. A record is the owner's path relative to the bundle (or an
+        // absolute one, as older bundles hold).
         if let Some((owner, take_over)) = &self.owner
             && let Some(recorded) = read_owner(&self.dir).filter(|r| r != owner)
             && !take_over
-            && Path::new(&recorded).exists()
+            && self.dir.join(&recorded).exists()
         {
-            return Err(BundleError::Owned { path: self.dir.clone(), owner: recorded, writer: owner.clone() });
+            let (owner, writer) = (resolved(&self.dir, &recorded), resolved(&self.dir, owner));
+            return Err(BundleError::Owned { path: self.dir.clone(), owner, writer });
         }
 
         // 1. The manifest as it is now, with this writer's changes, checked as a reader will.
@@ -524,6 +526,22 @@ fn read_retired(dir: &Path) -> BTreeSet<String> {
         return BTreeSet::new();
     };
     String::from_utf8_lossy(&bytes).lines().filter(|l| looks_like_payload(l)).map(str::to_string).collect()
+}
+
+/// Owner record `record` seen from bundle `dir`, as a path to show: joined and with its `..`
+/// taken lexically (`/a/b/../p.ron` → `/a/p.ron`).
+fn resolved(dir: &Path, record: &str) -> String {
+    let mut path = PathBuf::new();
+    for c in dir.join(record).components() {
+        match c {
+            std::path::Component::ParentDir if path.file_name().is_some() => {
+                path.pop();
+            }
+            std::path::Component::CurDir => {}
+            c => path.push(c),
+        }
+    }
+    path.display().to_string()
 }
 
 /// The owner recorded in `dir`, if any (the first line of `.hikage-owner`, at most 64 KiB).
