@@ -592,6 +592,11 @@ fn two_checkouts_bake_byte_identical_bundles_and_ownership_holds() {
     b.run(&["bake"]);
     assert_eq!(snapshot(&a.path("out/bundle")), snapshot(&b.path("out/bundle")));
     assert_eq!(a.read("out/bundle/.hikage-owner"), b"../../pipeline.ron\n");
+    // A bundle of an older hikage records its owner's absolute path: still the same pipeline.
+    let absolute = std::fs::canonicalize(a.path("pipeline.ron")).unwrap();
+    a.write("out/bundle/.hikage-owner", format!("{}\n", absolute.display()));
+    a.run(&["bake"]);
+    assert_eq!(a.read("out/bundle/.hikage-owner"), b"../../pipeline.ron\n");
 
     a.write("other.ron", pipeline);
     let out = a.run_expecting(&["bake", "other.ron"], 1);
@@ -599,4 +604,69 @@ fn two_checkouts_bake_byte_identical_bundles_and_ownership_holds() {
     assert!(stderr(&out).contains("belongs to the pipeline pipeline.ron, and other.ron may not"), "{}", stderr(&out));
     a.run(&["bake", "other.ron", "--force"]);
     assert_eq!(a.read("out/bundle/.hikage-owner"), b"../../other.ron\n");
+}
+
+/// A pipeline's budget: a bake over it commits nothing and exits 4, naming the bundle, job or
+/// asset, the figure and the budget; a bake within it records it in the manifest, where
+/// `validate BUNDLE` checks it again; `validate PIPELINE` checks the bundle at the output; a
+/// budget naming no job of the pipeline is a setting error.
+#[test]
+fn budgets_refuse_to_commit_and_validate_checks_them() {
+    let pipeline = |budget: &str| {
+        format!(
+            r#"(output: "bundle", budget: ({budget}), jobs: [
+                Horizon(id: "t", input: "data/cylinders.png", directions: 4),
+                Heightfield(id: "h", input: "data/relief_bricks.png"),
+            ])"#
+        )
+    };
+    let dir = Dir::with_pipeline("budget", &pipeline(r#"disk: Some(100000000), gpu: Some(100000000)"#));
+    dir.run(&["bake"]);
+    dir.run(&["validate", "bundle"]);
+    let manifest = String::from_utf8(dir.read("bundle/bundle.ron")).unwrap();
+    assert!(manifest.contains("budget: Some((") && manifest.contains("disk: Some(100000000)"), "{manifest}");
+    let before = snapshot(&dir.path("bundle"));
+    // The horizon texture's GPU bytes: 128² texels × 4 directions × 2 half floats.
+    let horizon_gpu = 128 * 128 * 4 * 4;
+    for (budget, names) in [
+        (
+            "gpu: Some(1000)".to_string(),
+            ["bundle: ", "bytes in GPU memory, over its budget of 1000", "largest: `t.horizon`"],
+        ),
+        (
+            r#"jobs: {"t": (gpu: Some(1000))}"#.to_string(),
+            ["job `t`: ", "bytes in GPU memory, over its budget of 1000", "largest: `t.horizon`"],
+        ),
+        (
+            format!(r#"assets: {{"t.horizon": (gpu: Some({}))}}"#, horizon_gpu - 1),
+            ["asset `t.horizon`: ", &format!("{horizon_gpu} bytes in GPU memory"), "over its budget"],
+        ),
+    ] {
+        dir.write("pipeline.ron", pipeline(&budget));
+        for args in [&["bake"][..], &["validate", "pipeline.ron"]] {
+            let out = dir.run_expecting(args, 4);
+            let text = stderr(&out);
+            assert!(names.iter().all(|n| text.contains(n)), "{budget}: {text}");
+        }
+        assert_eq!(snapshot(&dir.path("bundle")), before, "{budget}: nothing committed");
+    }
+    // Exactly at the asset's budget is within it.
+    dir.write("pipeline.ron", pipeline(&format!(r#"assets: {{"t.horizon": (gpu: Some({horizon_gpu}))}}"#)));
+    dir.run(&["bake"]);
+    // A shipped bundle whose recorded budget it no longer meets fails `validate` with 4 too.
+    let manifest = String::from_utf8(dir.read("bundle/bundle.ron")).unwrap();
+    dir.write("bundle/bundle.ron", manifest.replace(&format!("gpu: Some({horizon_gpu})"), "gpu: Some(5)"));
+    let out = dir.run_expecting(&["validate", "bundle", "--format", "json"], 4);
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["valid"], true);
+    assert_eq!(json["over_budget"][0]["scope"], "asset `t.horizon`");
+    assert_eq!(json["over_budget"][0]["budget"], 5);
+    // A budget naming what the pipeline does not make is refused before anything is read.
+    for (budget, word) in
+        [(r#"jobs: {"tt": (disk: Some(1))}"#, "job `tt`"), (r#"assets: {"x.ao": (disk: Some(1))}"#, "`x.ao`")]
+    {
+        dir.write("pipeline.ron", pipeline(budget));
+        let out = dir.run_expecting(&["validate", "pipeline.ron"], 1);
+        assert!(stderr(&out).contains(word) && stderr(&out).contains("budget"), "{}", stderr(&out));
+    }
 }

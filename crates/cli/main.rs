@@ -1,7 +1,7 @@
 //! `hikage`: bakes pipelines into bundles, validates, inspects and exports them.
 //!
 //! Thin by design: parse arguments, call `hikage-bake` / `hikage-bundle`, report. Exit codes:
-//! 0 success, 1 invalid input or failed validation, 2 usage error, 3 I/O error.
+//! 0 success, 1 invalid input or failed validation, 2 usage error, 3 I/O error, 4 over budget.
 
 #[macro_use]
 mod output;
@@ -25,7 +25,9 @@ Exit codes:
   0  success
   1  invalid input, invalid settings, or a bundle that failed validation
   2  usage error (unknown command or option, missing argument)
-  3  I/O error (a file or directory that cannot be read or written)";
+  3  I/O error (a file or directory that cannot be read or written)
+  4  over budget: the bundle is valid but bigger than its pipeline's `budget` (a bake then
+     commits nothing)";
 
 /// Bakes, validates, inspects and exports hikage bundles.
 #[derive(Parser)]
@@ -177,11 +179,25 @@ struct Failure {
 impl<E: Into<anyhow::Error>> From<E> for Failure {
     fn from(e: E) -> Self {
         let error = e.into();
+        let bundle_error = |c: &(dyn std::error::Error + 'static)| match c.downcast_ref::<BakeError>() {
+            Some(BakeError::Bundle(e)) => Some(e.class()),
+            _ => c.downcast_ref::<BundleError>().map(BundleError::class),
+        };
         let io = error.chain().any(|c| {
             c.downcast_ref::<BakeError>().is_some_and(BakeError::is_io)
                 || c.downcast_ref::<BundleError>().is_some_and(BundleError::is_io)
         });
-        Failure { code: if io { 3 } else { 1 }, error }
+        let over_budget = error.chain().any(|c| bundle_error(c) == Some("budget"));
+        Failure {
+            code: if io {
+                3
+            } else if over_budget {
+                4
+            } else {
+                1
+            },
+            error,
+        }
     }
 }
 
@@ -338,24 +354,33 @@ fn validate(path: &Path, format: OutputFormat) -> Result<(), Failure> {
                 "valid": report.is_valid(),
                 "assets": report.assets,
                 "problems": report.problems,
+                "over_budget": report.over_budget,
             }))?
         ),
         OutputFormat::Text => {
             for p in &report.problems {
                 out!("{}: asset `{}`: {}", p.file.display(), p.asset, p.message);
             }
+            for o in &report.over_budget {
+                out!("{}: over budget: {o}", path.display());
+            }
             if report.is_valid() {
                 out!("{}: valid ({} assets)", path.display(), report.assets);
             }
         }
     }
-    if report.is_valid() {
-        Ok(())
-    } else {
+    if !report.is_valid() {
         Err(Failure {
             code: 1,
             error: anyhow::anyhow!("{}: {} problem(s) found", path.display(), report.problems.len()),
         })
+    } else if !report.over_budget.is_empty() {
+        Err(Failure {
+            code: 4,
+            error: anyhow::anyhow!("{}: {} figure(s) over budget", path.display(), report.over_budget.len()),
+        })
+    } else {
+        Ok(())
     }
 }
 

@@ -134,6 +134,11 @@ fn run_jobs(loaded: &LoadedPipeline, options: &RunOptions, mode: WriteMode) -> R
         // A pipeline owns its bundle: another pipeline's is refused by name at the commit,
         // unless that pipeline file is gone (a moved checkout) or --force takes the bundle over.
         writer.set_owner(&owner_record(&out, &loaded.path), options.force);
+        // A shard's partial bundle is not the bundle the budget is for.
+        let budget = &loaded.pipeline.budget;
+        if options.shard.is_none() && *budget != hikage_bundle::Budget::default() {
+            writer.set_budget(Some(budget.clone()));
+        }
     }
     let mut report = RunReport { bundle: out.clone(), ..Default::default() };
     report.watched.push(loaded.path.clone());
@@ -307,6 +312,16 @@ pub fn check_pipeline(path: &Path, observer: &dyn Observer) -> Result<PipelineCh
         check.jobs.push(job.id().to_string());
         check.inputs.extend(job.inputs(&loaded.base_dir));
         observer.job_finished(job.id(), false);
+    }
+    // The bundle now at the output, against the pipeline's budget (a bake would refuse it).
+    let out = loaded.output_dir();
+    if loaded.pipeline.budget != hikage_bundle::Budget::default()
+        && let Ok(bundle) = hikage_bundle::Bundle::open(&out)
+    {
+        let overruns = loaded.pipeline.budget.overruns(bundle.manifest());
+        if !overruns.is_empty() {
+            return Err(BakeError::Bundle(hikage_bundle::BundleError::OverBudget { path: out, overruns }));
+        }
     }
     Ok(check)
 }

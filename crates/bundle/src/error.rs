@@ -110,6 +110,19 @@ pub enum BundleError {
     /// Data handed to a writer is inconsistent (wrong byte count, duplicate id).
     #[error("{0}")]
     InvalidData(String),
+    /// A bundle (the one a commit would make, or one on disk) is over its budget; a commit
+    /// then commits nothing.
+    #[error(
+        "{}: over its budget (a bake commits nothing over it): {}",
+        path.display(),
+        overruns.iter().map(ToString::to_string).collect::<Vec<_>>().join("; ")
+    )]
+    OverBudget {
+        /// The bundle directory.
+        path: PathBuf,
+        /// Every figure over its budget.
+        overruns: Vec<crate::budget::Overrun>,
+    },
 }
 
 impl BundleError {
@@ -127,6 +140,7 @@ impl BundleError {
             BundleError::Lookup { .. } => "lookup",
             BundleError::Owned { .. } => "owned",
             BundleError::InvalidData(_) => "invalid_data",
+            BundleError::OverBudget { .. } => "budget",
         }
     }
 

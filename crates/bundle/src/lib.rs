@@ -27,6 +27,7 @@
 //! ```
 
 pub mod bc;
+pub mod budget;
 mod bundle;
 mod error;
 pub mod files;
@@ -44,6 +45,7 @@ mod version;
 mod writer;
 pub mod zstd;
 
+pub use budget::{Budget, Limit as BudgetLimit};
 pub use bundle::{Bundle, READERS_LOCK_FILE, decode_mesh};
 pub use error::BundleError;
 pub use limits::Limits;

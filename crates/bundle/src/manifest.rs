@@ -23,6 +23,9 @@ pub struct Manifest {
     pub format: FormatVersion,
     /// Program that wrote the bundle, e.g. `hikage 0.1.0`.
     pub generator: String,
+    /// The byte budgets the bundle was baked under, checked again by `validate` (since 1.8).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub budget: Option<crate::budget::Budget>,
     /// The assets, sorted by id.
     pub assets: Vec<Asset>,
 }
@@ -499,7 +502,12 @@ pub struct HeightfieldSettings {
 impl Manifest {
     /// An empty manifest of the current version.
     pub fn new() -> Self {
-        Manifest { format: FormatVersion::CURRENT, generator: crate::GENERATOR.to_string(), assets: Vec::new() }
+        Manifest {
+            format: FormatVersion::CURRENT,
+            generator: crate::GENERATOR.to_string(),
+            budget: None,
+            assets: Vec::new(),
+        }
     }
 
     /// The asset with this id.

@@ -30,6 +30,8 @@ pub struct Report {
     pub assets: usize,
     /// Everything found wrong; empty when the bundle is valid.
     pub problems: Vec<Problem>,
+    /// The figures over the budget the manifest records (a valid bundle may be over budget).
+    pub over_budget: Vec<crate::budget::Overrun>,
 }
 
 impl Report {
@@ -63,11 +65,11 @@ pub fn validate_with_limits(dir: &Path, limits: Limits) -> Result<Report, Bundle
                 .into_iter()
                 .map(|(asset, message)| Problem { asset, file: manifest_path.clone(), message })
                 .collect();
-            return Ok(Report { assets: manifest.assets.len(), problems });
+            return Ok(Report { assets: manifest.assets.len(), problems, over_budget: Vec::new() });
         }
         Err(e) => return Err(e),
     };
-    let mut report = Report { assets: bundle.manifest().assets.len(), problems: Vec::new() };
+    let mut report = Report { assets: bundle.manifest().assets.len(), ..Report::default() };
     for asset in &bundle.manifest().assets {
         if let Err(e) = check_asset(&bundle, asset) {
             report.problems.push(Problem {
@@ -92,6 +94,9 @@ pub fn validate_with_limits(dir: &Path, limits: Limits) -> Result<Report, Bundle
                 ),
             });
         }
+    }
+    if let Some(budget) = &bundle.manifest().budget {
+        report.over_budget = budget.overruns(bundle.manifest());
     }
     Ok(report)
 }

@@ -20,8 +20,9 @@ impl FormatVersion {
     /// horizon textures baked in tiles; 1.5 the compact `Strands` records (one 32-byte record
     /// per point, levels of detail) in place of the expanded strips, which readers no longer
     /// take; 1.6 zstd-compressed mesh payloads (a mesh's `supercompression`); 1.7 the
-    /// block-compressed texture formats `Bc4RUnorm` and `Bc5RgUnorm`.
-    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 7 };
+    /// block-compressed texture formats `Bc4RUnorm` and `Bc5RgUnorm`; 1.8 the manifest's
+    /// optional `budget`.
+    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 8 };
 }
 
 impl fmt::Display for FormatVersion {

@@ -106,6 +106,8 @@ pub struct BundleWriter {
     reading: Option<fs::File>,
     /// The owner this writer commits as, and whether it may take over another's bundle.
     owner: Option<(String, bool)>,
+    /// The budget the committed bundle must keep, and records.
+    budget: Option<crate::budget::Budget>,
 }
 
 impl BundleWriter {
@@ -148,6 +150,7 @@ impl BundleWriter {
             alive: Some((file, path)),
             reading,
             owner: None,
+            budget: None,
         })
     }
 
@@ -167,6 +170,12 @@ impl BundleWriter {
     /// silently winning; a checkout that moved takes its bundle back.
     pub fn set_owner(&mut self, owner: &str, take_over: bool) {
         self.owner = Some((owner.to_string(), take_over));
+    }
+
+    /// Commits only a bundle within `budget`, and records it in the manifest (`None`: no
+    /// budget; a writer in [`WriteMode::Update`] then keeps the bundle's own).
+    pub fn set_budget(&mut self, budget: Option<crate::budget::Budget>) {
+        self.budget = budget;
     }
 
     /// The manifest that was in place when the writer opened, if any.
@@ -329,6 +338,11 @@ impl BundleWriter {
         }
         let mut m = Manifest::new();
         m.assets = assets.into_values().collect();
+        m.budget = match (&self.budget, self.mode, base) {
+            (Some(b), ..) => Some(b.clone()),
+            (None, WriteMode::Update, Some(base)) => base.budget.clone(),
+            _ => None,
+        };
         m
     }
 
@@ -360,7 +374,7 @@ impl BundleWriter {
         // 0. Whose bundle it is. A record is the owner's path relative to the bundle (or an
         // absolute one, as older bundles hold).
         if let Some((owner, take_over)) = &self.owner
-            && let Some(recorded) = read_owner(&self.dir).filter(|r| r != owner)
+            && let Some(recorded) = read_owner(&self.dir).filter(|r| !same_file(&self.dir, r, owner))
             && !take_over
             && self.dir.join(&recorded).exists()
         {
@@ -372,6 +386,12 @@ impl BundleWriter {
         let current = current_manifest(&self.dir, self.ignore_bad)?;
         let new = self.apply(current.as_ref());
         let text = checked_manifest_text(&self.dir, &new)?;
+        if let Some(budget) = &new.budget {
+            let overruns = budget.overruns(&new);
+            if !overruns.is_empty() {
+                return Err(BundleError::OverBudget { path: self.dir.clone(), overruns });
+            }
+        }
 
         // 2. Staged payloads recorded, then to their names, every payload the new manifest
         // names in place; 3. the manifest. On a failure the payloads moved in are taken out
@@ -526,6 +546,16 @@ fn read_retired(dir: &Path) -> BTreeSet<String> {
         return BTreeSet::new();
     };
     String::from_utf8_lossy(&bytes).lines().filter(|l| looks_like_payload(l)).map(str::to_string).collect()
+}
+
+/// Whether owner records `a` and `b` name one file seen from bundle `dir` (a record written
+/// relative and an older one written absolute included).
+fn same_file(dir: &Path, a: &str, b: &str) -> bool {
+    a == b
+        || match (fs::canonicalize(dir.join(a)), fs::canonicalize(dir.join(b))) {
+            (Ok(a), Ok(b)) => a == b,
+            _ => false,
+        }
 }
 
 /// Owner record `record` seen from bundle `dir`, as a path to show: joined and with its `..`

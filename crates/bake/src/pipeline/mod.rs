@@ -38,6 +38,10 @@ pub struct Pipeline {
     /// `hikage bake --cache` overrides it.
     #[serde(default)]
     pub cache: Option<PathBuf>,
+    /// Bytes on disk and in GPU memory the bundle, a job or an asset may take: a bake over it
+    /// commits nothing (exit 4), and the manifest records it for `hikage validate`.
+    #[serde(default)]
+    pub budget: hikage_bundle::Budget,
     /// The jobs, baked in order.
     pub jobs: Vec<Job>,
 }
@@ -76,6 +80,7 @@ impl LoadedPipeline {
                 output: bundle.to_path_buf(),
                 limits: InputLimits::default(),
                 cache: None,
+                budget: hikage_bundle::Budget::default(),
                 jobs: vec![job],
             },
             spans: Spans::default(),
@@ -192,6 +197,22 @@ impl Pipeline {
                     });
                 }
             }
+        }
+        // What the budget names must be the pipeline's: a typo must not leave a job unbounded.
+        let budget = |message: String| BakeError::Setting {
+            path: path.to_path_buf(),
+            place: None,
+            job: "budget".into(),
+            message,
+        };
+        let ids: Vec<&str> = self.jobs.iter().map(|j| j.baker().id()).collect();
+        if let Some(job) = self.budget.jobs.keys().find(|k| !ids.contains(&k.as_str())) {
+            return Err(budget(format!("`jobs` names job `{job}`, which the pipeline does not have")));
+        }
+        if let Some(asset) =
+            self.budget.assets.keys().find(|a| !ids.iter().any(|job| hikage_bundle::budget::made_by(a, job)))
+        {
+            return Err(budget(format!("`assets` names `{asset}`, which no job of the pipeline makes")));
         }
         Ok(())
     }
