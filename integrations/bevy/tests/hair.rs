@@ -335,14 +335,7 @@ fn hair_follows_its_entity_as_if_baked_there() {
         let built = app.update_until(600, |w| w.get::<MeshMaterial3d<HairReceiverMaterial>>(ground).is_some());
         assert!(built, "the receiver was not built");
         // The first frames may still wait for the maps or the strips on the render side.
-        let mut image = app.capture_bytes(&target);
-        for _ in 0..10 {
-            let next = app.capture_bytes(&target);
-            if next == image {
-                break;
-            }
-            image = next;
-        }
+        let image = app.capture_bytes_settled(&target);
         let root = app.world().get::<ChildOf>(hair).map_or(hair, |c| c.parent());
         app.world().entity_mut(root).despawn();
         app.world().despawn(ground);
@@ -401,15 +394,7 @@ fn hair_and_its_shadow_draw_in_a_camera_with_msaa() {
     let frame = |app: &mut common::Headless, msaa: Msaa, draw: HairDraw| {
         app.world().entity_mut(camera).insert(msaa);
         app.world().get_mut::<HairStrands>(hair).unwrap().draw = draw;
-        let mut image = app.capture_bytes(&target);
-        for _ in 0..10 {
-            let next = app.capture_bytes(&target);
-            if next == image {
-                break;
-            }
-            image = next;
-        }
-        image
+        app.capture_bytes_settled(&target)
     };
     let off = frame(&mut app, Msaa::Off, HairDraw::Blended);
     let bare_off = frame(&mut app, Msaa::Off, HairDraw::ShadowsOnly);
@@ -456,26 +441,15 @@ fn hair_keeps_to_a_cameras_viewport() {
     let built = app.update_until(600, |w| w.get::<MeshMaterial3d<HairReceiverMaterial>>(ground).is_some());
     assert!(built, "the receiver was not built");
     let camera = app.world().query_filtered::<Entity, With<Camera>>().single(app.world()).unwrap();
-    let settled = |app: &mut common::Headless, target: &Handle<Image>| {
-        let mut image = app.capture_bytes(target);
-        for _ in 0..10 {
-            let next = app.capture_bytes(target);
-            if next == image {
-                break;
-            }
-            image = next;
-        }
-        image
-    };
     let half = SIZE / 2;
     let viewport =
         Viewport { physical_position: UVec2::new(half, 0), physical_size: UVec2::new(half, SIZE), ..default() };
     app.world().get_mut::<Camera>(camera).unwrap().viewport = Some(viewport);
-    let split = settled(&mut app, &target);
+    let split = app.capture_bytes_settled(&target);
     let narrow = app.target(half, SIZE);
     app.world().get_mut::<Camera>(camera).unwrap().viewport = None;
     app.world().entity_mut(camera).insert(RenderTarget::from(narrow.clone()));
-    let alone = settled(&mut app, &narrow);
+    let alone = app.capture_bytes_settled(&narrow);
     let (mut agree, mut hair_pixels) = (0, 0);
     for row in 0..SIZE as usize {
         for col in 0..half as usize {

@@ -208,6 +208,19 @@ impl Headless {
         panic!("the frame did not settle in 10 captures");
     }
 
+    /// [`capture_bytes`](Self::capture_bytes) until two frames in a row agree (at most 10).
+    pub fn capture_bytes_settled(&mut self, target: &Handle<Image>) -> Vec<[u8; 4]> {
+        let mut last = self.capture_bytes(target);
+        for _ in 0..10 {
+            let next = self.capture_bytes(target);
+            if next == last {
+                return next;
+            }
+            last = next;
+        }
+        panic!("the frame did not settle in 10 captures");
+    }
+
     /// Renders frames until image `image` (with `COPY_SRC` usage) is read back: its bytes as
     /// stored, rows unpadded.
     pub fn read_image(&mut self, image: &Handle<Image>) -> Vec<u8> {
