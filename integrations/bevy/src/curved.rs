@@ -18,7 +18,7 @@ use hikage_bundle::{AssetKind, Settings};
 use crate::HikageBundle;
 use crate::attach::FromBundle;
 use crate::attributes;
-use crate::diagnostics::{NamesBundle, Problems};
+use crate::diagnostics::{NamesBundle, Problems, SunShadowed};
 
 /// Bevy's `StandardMaterial` on a curved mesh with a bump map and curvature-corrected horizon
 /// shadows.
@@ -149,6 +149,8 @@ impl NamesBundle for CurvedSurface {
         &self.bundle
     }
 }
+
+impl SunShadowed for CurvedSurface {}
 
 impl FromBundle for CurvedSurface {
     type Material = CurvedMaterial;

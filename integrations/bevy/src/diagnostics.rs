@@ -72,9 +72,12 @@ impl Problems {
 pub(crate) trait NamesBundle: Component {
     /// The bundle it names assets of.
     fn bundle(&self) -> &Handle<HikageBundle>;
+}
 
-    /// Whether its material takes the sun's light through Bevy's directional shadow factor (and
-    /// so needs a light with shadow maps).
+/// A component whose material sets Bevy's directional shadow factor, which Bevy applies only to
+/// a light with shadow maps.
+pub(crate) trait SunShadowed: Component {
+    /// Whether it uses the factor as it is now set up.
     fn shadowed_by_sun(&self) -> bool {
         true
     }
@@ -116,7 +119,7 @@ pub(crate) fn check_load<C: NamesBundle>(
 /// Says on each `C` shadowed by the sun when the scene's directional lights all lack shadow
 /// maps: Bevy applies a material's directional shadow factor only to a light with shadow maps,
 /// so the baked shadows would be lost without a word.
-pub(crate) fn check_sun<C: NamesBundle>(lights: Query<&DirectionalLight>, mut entities: Query<(&C, &mut Problems)>) {
+pub(crate) fn check_sun<C: SunShadowed>(lights: Query<&DirectionalLight>, mut entities: Query<(&C, &mut Problems)>) {
     let unshadowed = !lights.is_empty() && lights.iter().all(|l| !l.shadow_maps_enabled);
     for (component, mut problems) in &mut entities {
         let problem = (unshadowed && component.shadowed_by_sun()).then(|| {

@@ -17,7 +17,7 @@ pub use hikage_runtime::relief::{DirectionRule, Tracer, VisibilityPath};
 
 use crate::HikageBundle;
 use crate::attach::FromBundle;
-use crate::diagnostics::{Check, NamesBundle, Problems};
+use crate::diagnostics::{Check, NamesBundle, Problems, SunShadowed};
 
 /// Bevy's `StandardMaterial` under relief mapping with self-shadowing and ambient occlusion.
 pub type ReliefMaterial = ExtendedMaterial<StandardMaterial, ReliefExtension>;
@@ -174,7 +174,9 @@ impl NamesBundle for ReliefSurface {
     fn bundle(&self) -> &Handle<HikageBundle> {
         &self.bundle
     }
+}
 
+impl SunShadowed for ReliefSurface {
     fn shadowed_by_sun(&self) -> bool {
         self.shadows
     }

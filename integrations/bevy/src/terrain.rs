@@ -15,7 +15,7 @@ use hikage_bundle::AssetKind;
 
 use crate::HikageBundle;
 use crate::attach::FromBundle;
-use crate::diagnostics::{NamesBundle, Problems};
+use crate::diagnostics::{NamesBundle, Problems, SunShadowed};
 
 /// Bevy's `StandardMaterial` with horizon shadows and baked ambient occlusion.
 pub type TerrainMaterial = ExtendedMaterial<StandardMaterial, TerrainExtension>;
@@ -123,6 +123,8 @@ impl NamesBundle for HorizonTerrain {
         &self.bundle
     }
 }
+
+impl SunShadowed for HorizonTerrain {}
 
 impl FromBundle for HorizonTerrain {
     type Material = TerrainMaterial;

@@ -471,3 +471,48 @@ fn hair_keeps_to_a_cameras_viewport() {
     assert!(agree as f64 >= 0.995 * n as f64, "{agree} of {n}");
     assert_eq!(outside, 0, "nothing is drawn outside the viewport");
 }
+
+/// The hair's mistakes are said on the entity, and cleared when fixed: opacity maps larger than
+/// the device holds, a receiver without a mesh, a sun without shadow maps (receivers are
+/// shadowed through Bevy's shadow factor).
+#[test]
+fn hair_mistakes_are_said_on_the_entity() {
+    if !gpu_or_skip("hair_mistakes_are_said_on_the_entity") {
+        return;
+    }
+    let (dir, _) = hair_bundle();
+    let MaskScene { mut app, light, .. } = MaskScene::new(
+        &dir,
+        32,
+        Vec3::Y,
+        Transform::from_xyz(0.0, 5.0, 0.0).looking_at(Vec3::ZERO, Vec3::NEG_Z),
+        default(),
+    );
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    let mut huge = HairStrands::new(bundle, "head.strips");
+    huge.resolution = 1 << 20;
+    let hair = app.world().spawn(huge).id();
+    let receiver = app.world().spawn(HairReceiver::new(hair)).id();
+    let error = |app: &mut common::Headless, e: Entity| app.world().get::<HikageError>(e).map(|e| e.0.clone());
+    let said = app.update_until(600, |w| w.get::<HikageError>(hair).is_some_and(|e| e.0.contains("render device")));
+    assert!(said, "{:?}", error(&mut app, hair));
+    assert!(error(&mut app, receiver).is_some_and(|m| m.contains("no Mesh3d")), "{:?}", error(&mut app, receiver));
+    app.world().get_mut::<DirectionalLight>(light).unwrap().shadow_maps_enabled = false;
+    app.update();
+    assert!(
+        error(&mut app, receiver).is_some_and(|m| m.contains("shadow_maps_enabled")),
+        "{:?}",
+        error(&mut app, receiver)
+    );
+    // Fixed, one by one.
+    app.world().get_mut::<HairStrands>(hair).unwrap().resolution = 128;
+    app.world().get_mut::<DirectionalLight>(light).unwrap().shadow_maps_enabled = true;
+    let plane = app.world().resource_mut::<Assets<Mesh>>().add(Plane3d::default().mesh().size(2.0, 2.0));
+    app.world().entity_mut(receiver).insert(Mesh3d(plane));
+    let cleared =
+        app.update_until(100, |w| w.get::<HikageError>(hair).is_none() && w.get::<HikageError>(receiver).is_none());
+    assert!(cleared, "{:?} {:?}", error(&mut app, hair), error(&mut app, receiver));
+    app.update_until(10, |_| false);
+    // None of it asked the app to quit (a render validation error does).
+    assert!(app.world().resource::<bevy::ecs::message::Messages<AppExit>>().is_empty(), "the app was asked to quit");
+}

@@ -131,11 +131,6 @@ impl NamesBundle for HairStrands {
     fn bundle(&self) -> &Handle<HikageBundle> {
         &self.bundle
     }
-
-    /// The hair takes its light through its own opacity maps, not Bevy's shadow factor.
-    fn shadowed_by_sun(&self) -> bool {
-        false
-    }
 }
 
 /// How strands look beyond what the asset holds, in Bevy's types: a gradient from root to tip,
@@ -221,19 +216,40 @@ pub struct HairShadowMaps {
 /// render world, and the receivers' material.
 pub(crate) fn build(app: &mut App) {
     app.add_plugins(bevy_pbr::MaterialPlugin::<HairReceiverMaterial>::default());
-    app.add_systems(Update, (give_maps, check_strips, receiver::attach.after(give_maps)));
+    app.add_systems(
+        Update,
+        (
+            give_maps,
+            check_strips,
+            receiver::attach.after(give_maps),
+            receiver::check_mesh,
+            crate::diagnostics::check_sun::<HairReceiver>,
+        ),
+    );
     render::build(app);
 }
 
 /// Says on each [`HairStrands`] whose loaded bundle has no such `Strands` asset what is there
-/// instead, and clears it once the asset is there.
-fn check_strips(mut hairs: Query<(&HairStrands, &mut Problems)>, bundles: Res<Assets<HikageBundle>>) {
+/// instead, or whose opacity maps the render device cannot hold (the render world could only
+/// log it), and clears it once fixed.
+fn check_strips(
+    mut hairs: Query<(&HairStrands, &mut Problems)>,
+    bundles: Res<Assets<HikageBundle>>,
+    device: Option<Res<bevy_render::renderer::RenderDevice>>,
+) {
+    let largest = device.map(|d| d.limits().max_texture_dimension_2d);
     for (hair, mut problems) in &mut hairs {
         let Some(bundle) = bundles.get(&hair.bundle) else { continue };
         let problem = match (bundle.strands(&hair.strips), bundle.asset(&hair.strips)) {
-            (Some(_), _) => None,
             (None, Some(a)) => Some(format!("asset `{}` is a {:?}, expected Strands", hair.strips, a.kind)),
             (None, None) => Some(format!("no asset `{}` in the bundle", hair.strips)),
+            (Some(_), _) => match largest {
+                Some(max) if hair.resolution == 0 || hair.resolution > max => Some(format!(
+                    "opacity maps of {0}×{0} texels: the render device holds 1 to {max} a side",
+                    hair.resolution
+                )),
+                _ => None,
+            },
         };
         Problems::set(&mut problems, Check::Build, problem);
     }
@@ -245,12 +261,19 @@ fn give_maps(
     hairs: Query<(Entity, &HairStrands, Option<&HairShadowMaps>), Changed<HairStrands>>,
     mut images: ResMut<Assets<Image>>,
     mut buffers: ResMut<Assets<ShaderBuffer>>,
+    device: Option<Res<bevy_render::renderer::RenderDevice>>,
 ) {
+    let largest = device.map_or(u32::MAX, |d| d.limits().max_texture_dimension_2d);
     for (entity, hair, maps) in &hairs {
         if maps.is_some_and(|m| m.resolution == hair.resolution) {
             continue;
         }
-        let r = hair.resolution.max(1);
+        // A size the device cannot hold would end the app with a validation error: it is said
+        // on the entity instead (`check_strips`), and the maps it has are kept.
+        if hair.resolution == 0 || hair.resolution > largest {
+            continue;
+        }
+        let r = hair.resolution;
         let mut map = |format: TextureFormat| {
             let mut image = Image::new_uninit(
                 Extent3d { width: r, height: r, depth_or_array_layers: 1 },

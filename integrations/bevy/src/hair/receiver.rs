@@ -5,6 +5,7 @@
 use bevy_asset::{Asset, Assets, Handle};
 use bevy_ecs::prelude::*;
 use bevy_image::Image;
+use bevy_mesh::Mesh3d;
 use bevy_pbr::{ExtendedMaterial, MaterialExtension, MeshMaterial3d, StandardMaterial};
 use bevy_reflect::Reflect;
 use bevy_render::render_resource::AsBindGroup;
@@ -12,7 +13,7 @@ use bevy_render::storage::ShaderBuffer;
 use bevy_shader::ShaderRef;
 
 use super::HairShadowMaps;
-use crate::diagnostics::{Check, Problems};
+use crate::diagnostics::{Check, Problems, SunShadowed};
 
 /// Bevy's `StandardMaterial` shadowed by a hair's deep opacity maps.
 pub type HairReceiverMaterial = ExtendedMaterial<StandardMaterial, HairReceiverExtension>;
@@ -112,5 +113,16 @@ pub(crate) fn attach(
             }
             None => {} // the hair gets its maps this frame
         }
+    }
+}
+
+impl SunShadowed for HairReceiver {}
+
+/// Says on each receiver without a `Mesh3d` that there is nothing to shade.
+pub(crate) fn check_mesh(mut receivers: Query<(Has<Mesh3d>, &mut Problems), With<HairReceiver>>) {
+    for (has_mesh, mut problems) in &mut receivers {
+        let problem = (!has_mesh)
+            .then(|| "a HairReceiver shades the entity's own mesh, and this entity has no Mesh3d".to_string());
+        Problems::set(&mut problems, Check::Mesh, problem);
     }
 }
