@@ -25,12 +25,13 @@ const RESOLUTION: u32 = 256;
 const GROUND: f32 = -0.6;
 
 /// Forty strands hanging from a ring and curling outward, crossing each other seen from the
-/// light; a bundle of their strips in a fresh directory, and their records for the references.
-fn hair_bundle() -> (std::path::PathBuf, StripArrays) {
+/// light; a bundle of their strips in a fresh directory `name` (one per test: tests run side by
+/// side), and their records for the references.
+fn hair_bundle(name: &str) -> (std::path::PathBuf, StripArrays) {
     let (s, sets) = ring_strands();
     let strips = build(&s, &sets);
     let settings = strips.settings(&s, &sets, None);
-    let dir = option_env!("CARGO_TARGET_TMPDIR").map_or_else(std::env::temp_dir, std::path::PathBuf::from).join("hair");
+    let dir = option_env!("CARGO_TARGET_TMPDIR").map_or_else(std::env::temp_dir, std::path::PathBuf::from).join(name);
     let _ = std::fs::remove_dir_all(&dir);
     let mut writer = BundleWriter::open(&dir.join("bundle"), WriteMode::Replace).unwrap();
     writer.put_mesh("head.strips", Settings::Strands(settings.clone()), "test", &strips.mesh).unwrap();
@@ -82,7 +83,7 @@ fn hair_maps_shadows_and_view_match_the_cpu_references() {
     if !gpu_or_skip("hair_maps_shadows_and_view_match_the_cpu_references") {
         return;
     }
-    let (dir, arrays) = hair_bundle();
+    let (dir, arrays) = hair_bundle("hair");
     let toward_sun = Vec3::new(0.3, 1.0, 0.4).normalize();
     let top = Transform::from_xyz(0.0, 5.0, 0.0).looking_at(Vec3::ZERO, Vec3::NEG_Z);
     let MaskScene { mut app, target, .. } =
@@ -360,6 +361,15 @@ fn hair_follows_its_entity_as_if_baked_there() {
     assert!(agree as f64 >= 0.999 * n as f64, "{agree} of {n}");
 }
 
+/// The ring of [`hair_bundle`] (baked into `name`) in a scene seen obliquely in perspective, lit
+/// from above.
+fn oblique_scene(name: &str) -> MaskScene {
+    let (dir, _) = hair_bundle(name);
+    let view = Transform::from_xyz(0.4, 1.6, 2.8).looking_at(Vec3::new(0.0, 0.2, 0.0), Vec3::Y);
+    let projection = Projection::Perspective(PerspectiveProjection { fov: 45f32.to_radians(), near: 0.1, ..default() });
+    MaskScene::new(&dir, SIZE, Vec3::new(0.3, 1.0, 0.4).normalize(), view, projection)
+}
+
 /// Bevy's default camera has MSAA 4×: the hair (blended, against the scene's depth resolved to
 /// one sample per pixel) and its shadow on a receiver draw there as with `Msaa::Off`, and a post
 /// in front of the hair still hides it.
@@ -369,11 +379,7 @@ fn hair_and_its_shadow_draw_in_a_camera_with_msaa() {
     if !gpu_or_skip("hair_and_its_shadow_draw_in_a_camera_with_msaa") {
         return;
     }
-    let (dir, _) = hair_bundle();
-    let view = Transform::from_xyz(0.4, 1.6, 2.8).looking_at(Vec3::new(0.0, 0.2, 0.0), Vec3::Y);
-    let projection = Projection::Perspective(PerspectiveProjection { fov: 45f32.to_radians(), near: 0.1, ..default() });
-    let MaskScene { mut app, target, .. } =
-        MaskScene::new(&dir, SIZE, Vec3::new(0.3, 1.0, 0.4).normalize(), view, projection);
+    let MaskScene { mut app, target, .. } = oblique_scene("hair_msaa");
     let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
     let world = app.world();
     let (plane, post) = {
@@ -427,11 +433,7 @@ fn hair_keeps_to_a_cameras_viewport() {
     if !gpu_or_skip("hair_keeps_to_a_cameras_viewport") {
         return;
     }
-    let (dir, _) = hair_bundle();
-    let view = Transform::from_xyz(0.4, 1.6, 2.8).looking_at(Vec3::new(0.0, 0.2, 0.0), Vec3::Y);
-    let projection = Projection::Perspective(PerspectiveProjection { fov: 45f32.to_radians(), near: 0.1, ..default() });
-    let MaskScene { mut app, target, .. } =
-        MaskScene::new(&dir, SIZE, Vec3::new(0.3, 1.0, 0.4).normalize(), view, projection);
+    let MaskScene { mut app, target, .. } = oblique_scene("hair_viewport");
     app.world().insert_resource(ClearColor(Color::srgb(0.0, 0.0, 1.0)));
     let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
     let plane = app.world().resource_mut::<Assets<Mesh>>().add(Plane3d::default().mesh().size(4.0, 4.0));
@@ -480,7 +482,7 @@ fn hair_mistakes_are_said_on_the_entity() {
     if !gpu_or_skip("hair_mistakes_are_said_on_the_entity") {
         return;
     }
-    let (dir, _) = hair_bundle();
+    let (dir, _) = hair_bundle("hair_mistakes");
     let MaskScene { mut app, light, .. } = MaskScene::new(
         &dir,
         32,
