@@ -122,14 +122,18 @@ pub(crate) fn check_load<C: NamesBundle>(
 pub(crate) fn check_sun<C: SunShadowed>(lights: Query<&DirectionalLight>, mut entities: Query<(&C, &mut Problems)>) {
     let unshadowed = !lights.is_empty() && lights.iter().all(|l| !l.shadow_maps_enabled);
     for (component, mut problems) in &mut entities {
-        let problem = (unshadowed && component.shadowed_by_sun()).then(|| {
-            "the scene's DirectionalLight has `shadow_maps_enabled: false`, and Bevy applies a material's \
-             shadow factor only to a light with shadow maps: set it to true, or no baked shadow is drawn"
-                .to_string()
-        });
-        Problems::set(&mut problems, Check::Sun, problem);
+        let said = unshadowed && component.shadowed_by_sun();
+        // Every frame: the message is made only when the finding changes.
+        if said != problems.get(Check::Sun).is_some() {
+            Problems::set(&mut problems, Check::Sun, said.then(|| UNSHADOWED.to_string()));
+        }
     }
 }
+
+/// What an entity shadowed through Bevy's shadow factor says under a sun without shadow maps.
+const UNSHADOWED: &str = "the scene's DirectionalLight has `shadow_maps_enabled: false`, and Bevy applies a \
+                          material's shadow factor only to a light with shadow maps: set it to true, or no baked \
+                          shadow is drawn";
 
 /// Publishes each entity's changed [`Problems`] as its [`HikageError`], logging each new text
 /// once, and removes the error once every check is clear.

@@ -3,7 +3,9 @@
 //! hit, shaded with the relief's normal, shadowed by the depth maps toward the first directional
 //! light and occluded by the same maps.
 
-use bevy_asset::{Asset, Assets, Handle};
+use std::collections::HashSet;
+
+use bevy_asset::{Asset, AssetEvent, AssetId, Assets, Handle};
 use bevy_ecs::prelude::*;
 use bevy_image::Image;
 use bevy_math::UVec2;
@@ -208,45 +210,53 @@ impl FromBundle for ReliefSurface {
 }
 
 /// Checks the mesh of each [`ReliefSurface`]: there is one, a triangle list with normals and
-/// UVs; tangents are generated where they are missing. A mesh still loading, or whose vertex
-/// data lives only in the render world, is not judged.
+/// UVs; tangents are generated where they are missing (on a copy, so a mesh that cannot take
+/// them is left untouched, and not tried again until it changes). A mesh still loading, or whose
+/// vertex data lives only in the render world, is not judged.
 pub(crate) fn check_mesh(
     mut meshes: ResMut<Assets<Mesh>>,
+    mut events: MessageReader<AssetEvent<Mesh>>,
+    mut untangentable: Local<HashSet<AssetId<Mesh>>>,
     mut surfaces: Query<(Entity, Option<&Mesh3d>, &mut Problems), With<ReliefSurface>>,
 ) {
+    for event in events.read() {
+        if let AssetEvent::Modified { id } | AssetEvent::Removed { id } = event {
+            untangentable.remove(id);
+        }
+    }
     for (entity, mesh, mut problems) in &mut surfaces {
-        let problem = match mesh {
-            None => Some(
-                "a ReliefSurface draws on the entity's own mesh, and this entity has no Mesh3d: add one with \
-                 normals and UVs"
-                    .to_string(),
-            ),
-            Some(mesh) => match meshes.get(&mesh.0) {
-                None => continue,
-                Some(m) => match relief_mesh(m) {
-                    Ok(true) => None,
-                    Ok(false) => {
-                        let generated = meshes.get_mut(&mesh.0).map(|mut m| m.generate_tangents());
-                        match generated {
-                            Some(Ok(())) => {
-                                bevy_log::warn!(
-                                    "hikage: entity {entity}: its mesh had no tangents, generated for relief mapping"
-                                );
-                                None
-                            }
-                            Some(Err(e)) => {
-                                Some(format!("its mesh has no tangents, and they cannot be generated: {e}"))
-                            }
-                            None => continue,
-                        }
+        let Some(mesh) = mesh else {
+            if problems.get(Check::Mesh) != Some(NO_MESH) {
+                Problems::set(&mut problems, Check::Mesh, Some(NO_MESH.to_string()));
+            }
+            continue;
+        };
+        let Some(m) = meshes.get(&mesh.0) else { continue };
+        let problem = match relief_mesh(m) {
+            Ok(true) => None,
+            Ok(false) if untangentable.contains(&mesh.id()) => continue,
+            Ok(false) => match m.clone().with_generated_tangents() {
+                Ok(with) => {
+                    if let Some(mut m) = meshes.get_mut(&mesh.0) {
+                        *m = with;
                     }
-                    Err(message) => Some(message),
-                },
+                    bevy_log::warn!("hikage: entity {entity}: its mesh had no tangents, generated for relief mapping");
+                    None
+                }
+                Err(e) => {
+                    untangentable.insert(mesh.id());
+                    Some(format!("its mesh has no tangents, and they cannot be generated: {e}"))
+                }
             },
+            Err(message) => Some(message),
         };
         Problems::set(&mut problems, Check::Mesh, problem);
     }
 }
+
+/// What a [`ReliefSurface`] without a `Mesh3d` says.
+const NO_MESH: &str =
+    "a ReliefSurface draws on the entity's own mesh, and this entity has no Mesh3d: add one with normals and UVs";
 
 /// Whether `mesh` has tangents (`Ok(false)`: missing, but it has what generating them needs),
 /// or why relief mapping cannot use it.

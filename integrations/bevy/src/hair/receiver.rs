@@ -121,8 +121,12 @@ impl SunShadowed for HairReceiver {}
 /// Says on each receiver without a `Mesh3d` that there is nothing to shade.
 pub(crate) fn check_mesh(mut receivers: Query<(Has<Mesh3d>, &mut Problems), With<HairReceiver>>) {
     for (has_mesh, mut problems) in &mut receivers {
-        let problem = (!has_mesh)
-            .then(|| "a HairReceiver shades the entity's own mesh, and this entity has no Mesh3d".to_string());
-        Problems::set(&mut problems, Check::Mesh, problem);
+        // Every frame: the message is made only when the finding changes.
+        if has_mesh == problems.get(Check::Mesh).is_some() {
+            Problems::set(&mut problems, Check::Mesh, (!has_mesh).then(|| NO_MESH.to_string()));
+        }
     }
 }
+
+/// What a [`HairReceiver`] without a `Mesh3d` says.
+const NO_MESH: &str = "a HairReceiver shades the entity's own mesh, and this entity has no Mesh3d";
