@@ -211,15 +211,7 @@ fn hair_drawn_with_a_model_matrix_matches_the_hair_baked_there() {
         Vec4::new(2.0, 0.0, 0.0, 0.0),
         Vec4::new(3.0, -1.0, 0.5, 1.0),
     );
-    let moved = Strands {
-        points: s.points.iter().map(|p| model.transform_point3(Vec3::from(*p)).to_array()).collect(),
-        ..s.clone()
-    };
-    let doubled = StripSets {
-        shading: (2.0 * sets.shading.0, sets.shading.1),
-        opacity: (2.0 * sets.opacity.0, sets.opacity.1),
-        ..sets
-    };
+    let (moved, doubled) = synth::carried(&s, &sets, model.to_cols_array_2d(), 2.0);
     let (here, _) = strips_dir("gpu_hair_model", "s.strips", &s, &sets);
     let (there, _) = strips_dir("gpu_hair_moved", "s.strips", &moved, &doubled);
     let Some(g) = gpu("hair_drawn_with_a_model_matrix_matches_the_hair_baked_there") else { return };

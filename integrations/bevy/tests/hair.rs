@@ -285,15 +285,7 @@ fn hair_follows_its_entity_as_if_baked_there() {
     let (offset, turn, scale) = (Vec3::new(3.0, -1.0, 0.5), Quat::from_rotation_y(std::f32::consts::FRAC_PI_2), 2.0);
     let model =
         Mat4::from_translation(offset) * Mat4::from_scale_rotation_translation(Vec3::splat(scale), turn, Vec3::ZERO);
-    let moved = Strands {
-        points: s.points.iter().map(|p| model.transform_point3(Vec3::from(*p)).to_array()).collect(),
-        ..s.clone()
-    };
-    let doubled = StripSets {
-        shading: (2.0 * sets.shading.0, sets.shading.1),
-        opacity: (2.0 * sets.opacity.0, sets.opacity.1),
-        ..sets
-    };
+    let (moved, doubled) = hikage_devkit::synth::carried(&s, &sets, model.to_cols_array_2d(), scale);
     let dir =
         option_env!("CARGO_TARGET_TMPDIR").map_or_else(std::env::temp_dir, std::path::PathBuf::from).join("hair_moved");
     let _ = std::fs::remove_dir_all(&dir);

@@ -3,6 +3,7 @@
 
 use super::noise::hash01;
 use hikage_bake::strands::Strands;
+use hikage_bake::strands::strips::StripSets;
 
 /// Half-axes of the head ellipsoid (x across, y up, z forward), in centimetres.
 const HEAD: [f32; 3] = [8.0, 10.5, 9.5];
@@ -133,4 +134,20 @@ fn empty(count: u32, points: u16) -> Strands {
         default_transparency: 1.0 - 0.366,
         default_color: [0.35, 0.22, 0.12],
     }
+}
+
+/// Strands `s` with sets `sets` as if modelled where the affine matrix `model` (column-major
+/// columns, as glam's `to_cols_array_2d`) carries them: every point through the matrix, both
+/// sets' widths times `width_scale` (the matrix's uniform scale). What a renderer drawing `s`
+/// through `model` must match once these are baked.
+pub fn carried(s: &Strands, sets: &StripSets, model: [[f32; 4]; 4], width_scale: f32) -> (Strands, StripSets) {
+    let [a, b, c, t] = model;
+    let point = |p: &[f32; 3]| std::array::from_fn(|k| a[k] * p[0] + b[k] * p[1] + c[k] * p[2] + t[k]);
+    let moved = Strands { points: s.points.iter().map(point).collect(), ..s.clone() };
+    let widened = StripSets {
+        shading: (width_scale * sets.shading.0, sets.shading.1),
+        opacity: (width_scale * sets.opacity.0, sets.opacity.1),
+        ..*sets
+    };
+    (moved, widened)
 }

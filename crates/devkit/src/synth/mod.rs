@@ -7,7 +7,7 @@ mod heightfields;
 mod meshes;
 mod noise;
 
-pub use hair::{combed, curly, hair};
+pub use hair::{carried, combed, curly, hair};
 pub use heightfields::{bricks, cylinder_bumps, dune_ripples, fbm_relief, reptile_cells, spikes_and_walls, terrain};
 pub use meshes::{cylinder_obj, torus_glb, uv_sphere_obj};
 pub use noise::{fbm, hash01, value_noise};
