@@ -116,7 +116,7 @@ fn hair_maps_shadows_and_view_match_the_cpu_references() {
     assert!(error(&mut app, stray).is_some_and(|m| m.contains("has no HairStrands")), "{:?}", error(&mut app, stray));
     app.world().despawn(wrong);
     app.world().despawn(stray);
-    let shadowed = app.capture(&target);
+    let shadowed = app.capture_settled(&target);
     let maps = app.world().get::<HairShadowMaps>(hair).unwrap().clone();
     let depth: Vec<f32> =
         app.read_image(&maps.depth).chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
@@ -151,7 +151,7 @@ fn hair_maps_shadows_and_view_match_the_cpu_references() {
         .entity_mut(ground)
         .remove::<(HairReceiver, MeshMaterial3d<HairReceiverMaterial>)>()
         .insert(MeshMaterial3d(open_material));
-    let open = app.capture(&target);
+    let open = app.capture_settled(&target);
     let (mut checked, mut agree, mut shaded, mut error) = (0usize, 0usize, 0usize, 0.0f64);
     for row in 0..SIZE {
         for col in 0..SIZE {

@@ -187,25 +187,13 @@ impl Headless {
 
     /// Renders a frame and reads `target` back: linear RGB per pixel, row-major.
     pub fn capture(&mut self, target: &Handle<Image>) -> Vec<[f32; 3]> {
-        let linear = |c: u8| {
-            let c = c as f32 / 255.0;
-            if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
-        };
-        self.capture_bytes(target).into_iter().map(|p| [linear(p[0]), linear(p[1]), linear(p[2])]).collect()
+        linear(self.capture_bytes(target))
     }
 
     /// [`capture`](Self::capture) until two frames in a row agree: the first frames after a
     /// material appears may still miss the textures it waits for on the render side.
     pub fn capture_settled(&mut self, target: &Handle<Image>) -> Vec<[f32; 3]> {
-        let mut last = self.capture(target);
-        for _ in 0..10 {
-            let next = self.capture(target);
-            if next == last {
-                return next;
-            }
-            last = next;
-        }
-        panic!("the frame did not settle in 10 captures");
+        linear(self.capture_bytes_settled(target))
     }
 
     /// [`capture_bytes`](Self::capture_bytes) until two frames in a row agree (at most 10).
@@ -257,6 +245,15 @@ impl Headless {
         let bytes = image.data.expect("screenshot data");
         bytes.chunks_exact(4).map(|p| [p[0], p[1], p[2], p[3]]).collect()
     }
+}
+
+/// sRGB bytes as linear RGB.
+fn linear(pixels: Vec<[u8; 4]>) -> Vec<[f32; 3]> {
+    let linear = |c: u8| {
+        let c = c as f32 / 255.0;
+        if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+    };
+    pixels.into_iter().map(|p| [linear(p[0]), linear(p[1]), linear(p[2])]).collect()
 }
 
 /// A scene for comparing a method's shadow term with a reference: hikage's plugin, no ambient
