@@ -1,8 +1,12 @@
 //! Tiled horizon jobs end to end: `hikage bake` of a pipeline holding one map baked whole and in
 //! tiles, every tile's heights, horizons and occlusion against the same region of the whole
-//! map's, their placements, and tiles spread over shards and merged.
+//! map's, their placements, and tiles spread over shards and merged; tile tables read back as
+//! the entries they were written from, a damaged table refused, 20,000 tiles opened and
+//! validated.
 
-use hikage_bundle::{Bundle, Settings, TextureData};
+use hikage_bundle::tiles::TileIndex;
+use hikage_bundle::{Bundle, BundleError, Manifest, Settings, TextureData};
+use hikage_devkit::tile_tables::{Parts, pyramid};
 
 use crate::util::{Dir, stderr};
 
@@ -96,6 +100,10 @@ fn tiles_of_a_pipeline_are_the_whole_maps_bytes_and_placed() {
         dir.run(&["bake"]);
         dir.run(&["validate", "bundle"]);
         let bundle = Bundle::open(&dir.path("bundle")).unwrap();
+        // The tiles are one tile set of bundle.ron with a table, not an entry each.
+        let text = String::from_utf8(dir.read("bundle/bundle.ron")).unwrap();
+        assert!(text.contains("tile_sets") && text.contains("tiled.tile-table."), "{text}");
+        assert!(!text.contains("\"tiled.horizon.0_0\"") && text.contains("\"whole.horizon\""), "{text}");
         // Every texel, plus the columns and rows two tiles share.
         let (cols, rows) = (W + (W - 1).div_ceil(64) - 1, H + (H - 1).div_ceil(64) - 1);
         assert_eq!(tiles_match(&bundle), (cols * rows * (12 + 2)) as usize, "{edge}");
@@ -142,4 +150,135 @@ fn a_halo_too_large_to_read_is_refused_before_allocating() {
     let out = dir.run_expecting(&["bake"], 1);
     let needle = "above the limit of 16384: lower tile or max_distance";
     assert!(stderr(&out).contains(needle), "{}", dir.explain(&["bake"], &out, needle));
+}
+
+/// 64 hex digits standing for `id`'s hash (only the manifest is read).
+fn fake_hash(id: &str) -> String {
+    blake3::hash(id.as_bytes()).to_hex().to_string()
+}
+
+/// Writes `manifest` into `dir` as a bake would: `bundle.ron` and its tile tables.
+fn write_manifest(dir: &Dir, manifest: &Manifest) -> (usize, usize) {
+    let (text, tables) = manifest.encode();
+    dir.write("b/bundle.ron", &text);
+    let mut table_bytes = 0;
+    for (name, bytes) in &tables {
+        dir.write(&format!("b/{name}"), bytes);
+        table_bytes += bytes.len();
+    }
+    (text.len(), table_bytes)
+}
+
+#[test]
+fn a_tile_table_reads_back_as_the_entries_it_was_written_from() {
+    let dir = Dir::new("tile_table_round_trip");
+    let mut manifest = Manifest::new();
+    manifest.assets = pyramid("dem", 4096, 256, Parts::All, 1234, &fake_hash);
+    // A 4096² map in 256² tiles: 16² + 8² + 4² + 2² + 1 tiles, three payloads each.
+    assert_eq!(manifest.assets.len(), 3 * (256 + 64 + 16 + 4 + 1));
+    manifest.assets.sort_by(|a, b| a.id.cmp(&b.id));
+    let (text, tables) = write_manifest(&dir, &manifest);
+    // 100 bytes a payload in the table and a few parts in bundle.ron.
+    assert_eq!(tables, 16 + 100 * manifest.assets.len());
+    // One part per kind and level (texel size and map size change with the level).
+    assert!(text < 32 << 10, "bundle.ron is {text} bytes");
+    let bundle = Bundle::open(&dir.path("b")).unwrap();
+    assert_eq!(bundle.manifest().assets, manifest.assets);
+    // Written again, the same bytes.
+    assert_eq!(bundle.manifest().encode(), manifest.encode());
+
+    // One tile without the rest, at each level.
+    let text = String::from_utf8(dir.read("b/bundle.ron")).unwrap();
+    let sets = Manifest::tile_sets(&text, "b/bundle.ron".as_ref()).unwrap();
+    assert_eq!(sets.len(), 1);
+    for (part, level, index, id) in [
+        ("dem.horizon", 0, (15, 3), "dem.horizon.15_3"),
+        ("dem.ao", 2, (3, 1), "dem.ao.L2.3_1"),
+        ("dem.height", 4, (0, 0), "dem.height.L4.0_0"),
+    ] {
+        let found = hikage_bundle::tiles::find_tile(&dir.path("b"), &sets[0], part, level, index).unwrap();
+        assert_eq!(found.as_ref(), manifest.asset(id), "{id}");
+    }
+    let missing = hikage_bundle::tiles::find_tile(&dir.path("b"), &sets[0], "dem.horizon", 0, (16, 0)).unwrap();
+    assert!(missing.is_none());
+    // The index a streaming game opens gives every tile's entry as the full manifest has it.
+    let index = TileIndex::open(&dir.path("b")).unwrap();
+    for a in &manifest.assets {
+        let p = a.settings.tile().unwrap();
+        let part = a.id.strip_suffix(&hikage_bundle::tiles::tile_suffix(p.level, p.index)).unwrap();
+        assert_eq!(index.tile(part, p.level, p.index).as_ref(), Some(a));
+    }
+    assert!(index.tile("dem.horizon", 1, (8, 0)).is_none() && index.tile("dem.nothing", 0, (0, 0)).is_none());
+
+    // A damaged table is refused, naming it; so is one cut short.
+    let table = &sets[0].table;
+    let mut bytes = dir.read(&format!("b/{table}"));
+    bytes[16 + 100 * 7 + 40] ^= 1;
+    dir.write(&format!("b/{table}"), &bytes);
+    for err in [Bundle::open(&dir.path("b")).unwrap_err(), TileIndex::open(&dir.path("b")).unwrap_err()] {
+        let err = err.to_string();
+        assert!(err.contains(table.as_str()) && err.contains("BLAKE3"), "{err}");
+    }
+    dir.write(&format!("b/{table}"), &bytes[..bytes.len() - 100]);
+    for err in [Bundle::open(&dir.path("b")).unwrap_err(), TileIndex::open(&dir.path("b")).unwrap_err()] {
+        let err = err.to_string();
+        assert!(err.contains(table.as_str()) && err.contains("bytes"), "{err}");
+    }
+    // A set claiming more records than readers accept is refused before its table is read.
+    let huge = text.replace(&format!("records: {}", manifest.assets.len()), "records: 4000000000");
+    dir.write("b/bundle.ron", huge);
+    match Bundle::open(&dir.path("b")).unwrap_err() {
+        BundleError::Limit { what, value, .. } => assert!(what.contains("asset count") && value >= 4_000_000_000),
+        e => panic!("expected a limit, got {e}"),
+    }
+    let err = TileIndex::open(&dir.path("b")).unwrap_err().to_string();
+    assert!(err.contains("4000000000 records, above the limit"), "{err}");
+}
+
+#[test]
+fn twenty_thousand_tiles_open_and_validate() {
+    let dir = Dir::new("tile_table_20k");
+    // One small heights payload, its bytes in every tile's file.
+    let desc = hikage_bundle::TextureDesc {
+        format: hikage_bundle::TextureFormat::R32Float,
+        dimension: hikage_bundle::TextureDimension::D2,
+        width: 2,
+        height: 2,
+        depth: 1,
+        layers: 1,
+        levels: 1,
+        supercompression: hikage_bundle::Supercompression::None,
+        channels: vec!["height".into()],
+    };
+    let texture = TextureData::from_f32(desc, &[1.0, 2.0, 3.0, 4.0]).unwrap();
+    let bytes = hikage_bundle::ktx2_file::encode(&texture, hikage_bundle::GENERATOR).unwrap();
+    let hash = blake3::hash(&bytes).to_hex().to_string();
+    // 141² tiles of 1 texel (each 2² with its neighbour's column and row): 19,881 at level 0,
+    // about 26,500 with every level.
+    let mut manifest = Manifest::new();
+    manifest.assets = pyramid("big", 141, 1, Parts::Heights, bytes.len() as u64, &|_| hash.clone())
+        .into_iter()
+        .filter(|a| a.payload.texture().is_some_and(|t| (t.width, t.height) == (2, 2)))
+        .collect();
+    manifest.assets.sort_by(|a, b| a.id.cmp(&b.id));
+    assert!(manifest.assets.len() >= 20_000, "{}", manifest.assets.len());
+    for a in &manifest.assets {
+        dir.write(&format!("b/{}", a.file), &bytes);
+    }
+    let (text, _) = write_manifest(&dir, &manifest);
+    assert!(text < 32 << 10, "bundle.ron is {text} bytes");
+    let bundle = Bundle::open(&dir.path("b")).unwrap();
+    assert_eq!(bundle.manifest().assets.len(), manifest.assets.len());
+    let report = hikage_bundle::validate(&dir.path("b")).unwrap();
+    assert!(
+        report.is_valid() && report.assets == manifest.assets.len(),
+        "{:?}",
+        &report.problems[..3.min(report.problems.len())]
+    );
+    // The CLI's validate agrees.
+    dir.run(&["validate", "b"]);
+    // One tile through the index a streaming game opens.
+    let index = TileIndex::open(&dir.path("b")).unwrap();
+    let tile = index.tile("big.height", 0, (139, 138)).unwrap();
+    assert_eq!(index.read_texture(&tile).unwrap(), texture);
 }

@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! cargo run --release --example bench              # every table
-//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load, size, fourier, bc
+//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load, size, tiles, fourier, bc
 //! cargo run --release --example bench -- scale     # tiled bakes: ~40 min, ~50 GiB of disk
 //! cargo run --release --example bench -- build-script   # clean builds of a game crate: ~15 min
 //! ```
@@ -22,6 +22,7 @@ mod load;
 mod relief;
 mod scale;
 mod size;
+mod tiles;
 
 use std::time::Instant;
 
@@ -100,6 +101,9 @@ fn main() {
     }
     if wanted("size") {
         size::run();
+    }
+    if wanted("tiles") {
+        tiles::run();
     }
     if wanted("fourier") {
         fourier::run();

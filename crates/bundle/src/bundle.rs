@@ -67,7 +67,7 @@ impl Bundle {
             col: 1,
             message: format!("expected UTF-8 text: {e}"),
         })?;
-        let manifest = Manifest::parse(&text, &path)?;
+        let manifest = parse_in(dir, &text, &limits)?;
         if manifest.assets.len() > limits.max_assets {
             return Err(BundleError::Limit {
                 path,
@@ -115,28 +115,7 @@ impl Bundle {
 
     /// Reads an asset's payload file, checking its size and BLAKE3 against the manifest.
     pub fn read_payload(&self, asset: &Asset) -> Result<Vec<u8>, BundleError> {
-        let path = self.payload_path(asset);
-        let meta = fs::symlink_metadata(&path).map_err(|e| BundleError::io(&path, e))?;
-        let payload_err =
-            |message: String| BundleError::Payload { path: path.clone(), asset: asset.id.clone(), message };
-        if !meta.is_file() {
-            return Err(payload_err("expected a regular file (symlinks are refused)".into()));
-        }
-        if meta.len() != asset.byte_length {
-            return Err(payload_err(format!("file is {} bytes, the manifest says {}", meta.len(), asset.byte_length)));
-        }
-        let bytes = read_limited(&path, self.limits.max_payload_bytes, "payload size")?;
-        if bytes.len() as u64 != asset.byte_length {
-            return Err(payload_err(format!("file is {} bytes, the manifest says {}", bytes.len(), asset.byte_length)));
-        }
-        let hash = blake3::hash(&bytes).to_hex();
-        if hash.as_str() != asset.blake3 {
-            return Err(payload_err(format!(
-                "BLAKE3 is {hash}, the manifest says {} (the file was modified or corrupted)",
-                asset.blake3
-            )));
-        }
-        Ok(bytes)
+        read_payload_in(&self.dir, asset, &self.limits)
     }
 
     /// Reads and decodes a texture asset; the KTX2 header must agree with the manifest.
@@ -213,20 +192,72 @@ pub(crate) fn decode_texture(
     Ok(tex)
 }
 
+/// Reads the payload file of `asset` in bundle `dir`, checking its size and BLAKE3 against the
+/// entry.
+pub(crate) fn read_payload_in(dir: &Path, asset: &Asset, limits: &Limits) -> Result<Vec<u8>, BundleError> {
+    let path = dir.join(&asset.file);
+    let meta = fs::symlink_metadata(&path).map_err(|e| BundleError::io(&path, e))?;
+    let payload_err = |message: String| BundleError::Payload { path: path.clone(), asset: asset.id.clone(), message };
+    if !meta.is_file() {
+        return Err(payload_err("expected a regular file (symlinks are refused)".into()));
+    }
+    if meta.len() != asset.byte_length {
+        return Err(payload_err(format!("file is {} bytes, the manifest says {}", meta.len(), asset.byte_length)));
+    }
+    let bytes = read_limited(&path, limits.max_payload_bytes, "payload size")?;
+    if bytes.len() as u64 != asset.byte_length {
+        return Err(payload_err(format!("file is {} bytes, the manifest says {}", bytes.len(), asset.byte_length)));
+    }
+    let hash = blake3::hash(&bytes).to_hex();
+    if hash.as_str() != asset.blake3 {
+        return Err(payload_err(format!(
+            "BLAKE3 is {hash}, the manifest says {} (the file was modified or corrupted)",
+            asset.blake3
+        )));
+    }
+    Ok(bytes)
+}
+
+/// Parses the manifest `text` of the bundle in `dir`, reading its tile tables from `dir`
+/// within `limits`.
+pub(crate) fn parse_in(dir: &Path, text: &str, limits: &Limits) -> Result<Manifest, BundleError> {
+    let path = dir.join(MANIFEST_FILE);
+    Manifest::parse_with_tables(text, &path, limits, &mut |set| {
+        read_limited(&dir.join(&set.table), set.byte_length, "tile table size")
+    })
+}
+
 /// Problems visible from the manifest alone: ids, file names, duplicates, descriptions,
 /// kind/payload/settings agreement. Returns `(asset, message)` pairs; empty when a reader
 /// accepts every entry.
 pub fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(String, String)> {
+    // Which ids and files repeat an earlier one's: borrowed and hashed, since a tiled map's
+    // manifest lists tens of thousands of assets; the checks of each asset alone then run on
+    // every core.
+    let mut ids = std::collections::HashSet::with_capacity(manifest.assets.len());
+    let mut files = std::collections::HashSet::with_capacity(manifest.assets.len());
+    let repeats: Vec<(bool, bool)> =
+        manifest.assets.iter().map(|a| (!ids.insert(a.id.as_str()), !files.insert(a.file.as_str()))).collect();
+    let per_asset = crate::parallel::map(&manifest.assets, |i, a| asset_problems(manifest, i, a, repeats[i], limits));
+    per_asset.into_iter().flatten().collect()
+}
+
+/// What is wrong with asset `i` of `manifest`, `a`, given whether its id and its file repeat an
+/// earlier asset's.
+fn asset_problems(
+    manifest: &Manifest,
+    i: usize,
+    a: &Asset,
+    (repeated_id, repeated_file): (bool, bool),
+    limits: &Limits,
+) -> Vec<(String, String)> {
     let mut problems = Vec::new();
-    let mut ids = std::collections::BTreeSet::new();
-    let mut files = std::collections::BTreeSet::new();
-    for (i, a) in manifest.assets.iter().enumerate() {
-        let name = if a.id.is_empty() { format!("#{i}") } else { a.id.clone() };
-        let mut bad = |m: String| problems.push((name.clone(), m));
+    {
+        let mut bad = |m: String| problems.push((if a.id.is_empty() { format!("#{i}") } else { a.id.clone() }, m));
         if let Err(m) = check_asset_id(&a.id) {
             bad(m);
         }
-        if !ids.insert(a.id.clone()) {
+        if repeated_id {
             bad("duplicate asset id".into());
         }
         if !is_safe_file_name(&a.file) {
@@ -234,7 +265,7 @@ pub fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(String, S
                 "file {:?} is not a plain file name inside the bundle directory (no separators, no .., not absolute)",
                 a.file
             ));
-        } else if !files.insert(a.file.clone()) {
+        } else if repeated_file {
             bad(format!("file {:?} is used by two assets", a.file));
         }
         if a.blake3.len() != 64 || !a.blake3.bytes().all(|b| b.is_ascii_hexdigit()) {

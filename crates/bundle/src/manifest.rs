@@ -9,8 +9,10 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::error::BundleError;
+use crate::limits::Limits;
 use crate::mesh::{ComponentType, MeshDesc};
 use crate::texture::TextureDesc;
+use crate::tiles::TileSet;
 use crate::version::FormatVersion;
 
 /// File name of the manifest inside a bundle directory.
@@ -261,12 +263,13 @@ impl Settings {
         }
     }
 
-    /// Where the asset lies in a map baked in tiles: a tile's heights or horizons. `None` for
-    /// whole maps and other kinds.
+    /// Where the asset lies in a map baked in tiles: a tile's heights, horizons or occlusion.
+    /// `None` for whole maps and other kinds.
     pub fn tile(&self) -> Option<&TilePlacement> {
         match self {
             Settings::Horizon(h) => h.tile.as_ref(),
             Settings::Heightfield(h) => h.tile.as_ref(),
+            Settings::AmbientOcclusion(a) => a.tile.as_ref(),
             _ => None,
         }
     }
@@ -418,8 +421,8 @@ pub struct HorizonSettings {
 }
 
 /// The place of one tile of a map baked in tiles. A tile's texture covers texels
-/// `origin .. origin + (its width, its height)` of the whole map; its texels are those the
-/// whole map's bake would have there.
+/// `origin .. origin + (its width, its height)` of the whole map at its level; at level 0 its
+/// texels are those the whole map's bake would have there.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct TilePlacement {
     /// The tiled map's name (the job id): every tile of one map has the same.
@@ -428,8 +431,16 @@ pub struct TilePlacement {
     pub index: (u32, u32),
     /// Column and row of the tile's first texel in the whole map.
     pub origin: (u32, u32),
-    /// The whole map's width and height in texels.
+    /// The whole map's width and height in texels, at this tile's level of detail.
     pub map_size: (u32, u32),
+    /// Level of detail: 0 is the map as baked, level `k` the map reduced by `2^k` (since format
+    /// 1.9; older tiles are all level 0).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub level: u32,
+}
+
+fn is_zero(v: &u32) -> bool {
+    *v == 0
 }
 
 impl TilePlacement {
@@ -438,7 +449,7 @@ impl TilePlacement {
     ///
     /// ```
     /// use hikage_bundle::TilePlacement;
-    /// let t = TilePlacement { map: "dem".into(), index: (3, 1), origin: (3072, 1024), map_size: (8192, 8192) };
+    /// let t = TilePlacement { map: "dem".into(), index: (3, 1), origin: (3072, 1024), map_size: (8192, 8192), level: 0 };
     /// assert_eq!(t.offset((2.0, 0.5)), (6144.0, 512.0));
     /// ```
     pub fn offset(&self, (sx, sy): (f32, f32)) -> (f32, f32) {
@@ -479,6 +490,10 @@ pub struct AmbientOcclusionSettings {
     pub horizon: String,
     /// Directions averaged.
     pub directions: u32,
+    /// Where this map lies in a map baked in tiles (`None`: the whole map; since format 1.9,
+    /// older tiles say it only by their id).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tile: Option<TilePlacement>,
 }
 
 /// How a heightfield's samples map to world space (see `docs/conventions.md`).
@@ -512,12 +527,76 @@ impl Manifest {
 
     /// The asset with this id.
     pub fn asset(&self, id: &str) -> Option<&Asset> {
-        self.assets.iter().find(|a| a.id == id)
+        // Manifests read or written are sorted by id; one built by hand may not be.
+        match self.assets.binary_search_by(|a| a.id.as_str().cmp(id)) {
+            Ok(i) => Some(&self.assets[i]),
+            Err(_) => self.assets.iter().find(|a| a.id == id),
+        }
     }
 
-    /// Parses a manifest, checking the version first so that a newer major is reported as
-    /// such rather than as a schema mismatch. `path` is only used in error messages.
+    /// Parses a manifest that has no tile sets, checking the version first so that a newer
+    /// major is reported as such rather than as a schema mismatch. `path` is only used in error
+    /// messages. A manifest with tile sets needs its tables: [`Manifest::parse_with_tables`].
     pub fn parse(text: &str, path: &Path) -> Result<Manifest, BundleError> {
+        Manifest::parse_with_tables(text, path, &Limits::default(), &mut |set| {
+            Err(BundleError::Lookup {
+                path: path.to_path_buf(),
+                message: format!("the tile table `{}` of map `{}` was not given to the parser", set.table, set.map),
+            })
+        })
+    }
+
+    /// Parses a manifest, reading each tile set's table with `read_table` (given the set, with
+    /// its size checked against `limits` before it is asked for) and listing every tile as an
+    /// asset. Assets are sorted by id.
+    pub fn parse_with_tables(
+        text: &str,
+        path: &Path,
+        limits: &Limits,
+        read_table: &mut dyn FnMut(&TileSet) -> Result<Vec<u8>, BundleError>,
+    ) -> Result<Manifest, BundleError> {
+        let file = Manifest::parse_file(text, path)?;
+        let mut assets = file.assets;
+        let mut room = (limits.max_assets as u64).saturating_sub(assets.len() as u64);
+        for set in &file.tile_sets {
+            let table_path = path.with_file_name(&set.table);
+            let bad = |message: String| BundleError::Payload {
+                path: table_path.clone(),
+                asset: set.map.clone(),
+                message: format!("tile table: {message}"),
+            };
+            if !crate::names::is_safe_file_name(&set.table) {
+                return Err(bad(format!("{:?} is not a plain file name inside the bundle directory", set.table)));
+            }
+            crate::tiles::expected_bytes(set, room).map_err(|m| {
+                if set.records > room {
+                    BundleError::Limit {
+                        path: table_path.clone(),
+                        what: "asset count with the tiles".into(),
+                        value: limits.max_assets as u64 - room + set.records,
+                        limit: limits.max_assets as u64,
+                    }
+                } else {
+                    bad(m)
+                }
+            })?;
+            let bytes = read_table(set)?;
+            assets.extend(crate::tiles::unpack(set, &bytes, room).map_err(bad)?);
+            room -= set.records;
+        }
+        if !file.tile_sets.is_empty() {
+            assets.sort_by(|a, b| a.id.cmp(&b.id));
+        }
+        Ok(Manifest { format: file.format, generator: file.generator, budget: file.budget, assets })
+    }
+
+    /// The tile sets `bundle.ron`'s `text` lists, its tables not read: what a reader needs to
+    /// find one tile with [`crate::tiles::find_tile`] (or to fetch the tables itself).
+    pub fn tile_sets(text: &str, path: &Path) -> Result<Vec<TileSet>, BundleError> {
+        Ok(Manifest::parse_file(text, path)?.tile_sets)
+    }
+
+    fn parse_file(text: &str, path: &Path) -> Result<ManifestFile, BundleError> {
         #[derive(Deserialize)]
         struct VersionOnly {
             format: FormatVersion,
@@ -533,7 +612,7 @@ impl Manifest {
                 supported: FormatVersion::CURRENT,
             });
         }
-        ron::Options::default().from_str::<Manifest>(text).map_err(|e| BundleError::ManifestSyntax {
+        ron::Options::default().from_str::<ManifestFile>(text).map_err(|e| BundleError::ManifestSyntax {
             path: path.to_path_buf(),
             line: e.span.start.line,
             col: e.span.start.col,
@@ -541,15 +620,49 @@ impl Manifest {
         })
     }
 
-    /// Serialises the manifest: pretty RON with assets sorted by id, ending in a newline.
-    pub fn to_ron(&self) -> String {
-        let mut sorted = self.clone();
-        sorted.assets.sort_by(|a, b| a.id.cmp(&b.id));
-        let config = ron::ser::PrettyConfig::new().indentor("    ").struct_names(false).compact_arrays(false);
-        let mut text = ron::ser::to_string_pretty(&sorted, config).expect("manifest types always serialise");
-        text.push('\n');
-        text
+    /// The payload files and tile tables the manifest names.
+    pub fn files(&self) -> std::collections::BTreeSet<String> {
+        let (_, tables) = self.encode();
+        self.assets.iter().map(|a| a.file.clone()).chain(tables.into_iter().map(|(name, _)| name)).collect()
     }
+
+    /// Serialises the manifest: pretty RON with assets sorted by id, ending in a newline. Tiles
+    /// are written as tile sets ([`crate::tiles`]); [`Manifest::encode`] also gives the tables.
+    pub fn to_ron(&self) -> String {
+        self.encode().0
+    }
+
+    /// The `bundle.ron` text and the tile tables it names (file name, bytes): the same
+    /// manifest always gives the same bytes.
+    pub fn encode(&self) -> (String, crate::tiles::TableFiles) {
+        let (mut assets, sets) = crate::tiles::pack(&self.assets);
+        assets.sort_by(|a, b| a.id.cmp(&b.id));
+        let (tile_sets, tables): (Vec<TileSet>, crate::tiles::TableFiles) =
+            sets.into_iter().map(|(set, bytes)| (set.clone(), (set.table, bytes))).unzip();
+        let file = ManifestFile {
+            format: self.format,
+            generator: self.generator.clone(),
+            budget: self.budget.clone(),
+            assets,
+            tile_sets,
+        };
+        let config = ron::ser::PrettyConfig::new().indentor("    ").struct_names(false).compact_arrays(false);
+        let mut text = ron::ser::to_string_pretty(&file, config).expect("manifest types always serialise");
+        text.push('\n');
+        (text, tables)
+    }
+}
+
+/// `bundle.ron` as written: the plain entries, and the maps baked in tiles as tile sets.
+#[derive(Serialize, Deserialize)]
+struct ManifestFile {
+    format: FormatVersion,
+    generator: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    budget: Option<crate::budget::Budget>,
+    assets: Vec<Asset>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    tile_sets: Vec<TileSet>,
 }
 
 impl Default for Manifest {

@@ -60,7 +60,7 @@ pub fn validate_with_limits(dir: &Path, limits: Limits) -> Result<Report, Bundle
         Ok(b) => b,
         Err(BundleError::InvalidAsset { .. }) => {
             let text = crate::files::read_limited(&manifest_path, limits.max_manifest_bytes, "manifest size")?;
-            let manifest = crate::Manifest::parse(&String::from_utf8_lossy(&text), &manifest_path)?;
+            let manifest = crate::bundle::parse_in(dir, &String::from_utf8_lossy(&text), &limits)?;
             let problems = manifest_problems(&manifest, &limits)
                 .into_iter()
                 .map(|(asset, message)| Problem { asset, file: manifest_path.clone(), message })

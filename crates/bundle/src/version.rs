@@ -21,8 +21,9 @@ impl FormatVersion {
     /// per point, levels of detail) in place of the expanded strips, which readers no longer
     /// take; 1.6 zstd-compressed mesh payloads (a mesh's `supercompression`); 1.7 the
     /// block-compressed texture formats `Bc4RUnorm` and `Bc5RgUnorm`; 1.8 the manifest's
-    /// optional `budget`.
-    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 8 };
+    /// optional `budget`; 1.9 tile sets (the tiles of a map written as one table, see
+    /// [`crate::tiles`]), levels of detail of tiles and the tile placement of occlusion maps.
+    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 9 };
 }
 
 impl fmt::Display for FormatVersion {

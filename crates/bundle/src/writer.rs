@@ -45,6 +45,7 @@ use crate::manifest::{Asset, MANIFEST_FILE, Manifest, Payload, Settings};
 use crate::mesh::MeshData;
 use crate::names::{check_asset_id, looks_like_payload, payload_file_name};
 use crate::texture::{Supercompression, TextureData};
+use crate::tiles::TableFiles;
 use crate::validate::{check_mesh, check_payload, check_texture};
 
 const TEMP_PREFIX: &str = ".hikage-tmp-";
@@ -385,7 +386,7 @@ impl BundleWriter {
         // 1. The manifest as it is now, with this writer's changes, checked as a reader will.
         let current = current_manifest(&self.dir, self.ignore_bad)?;
         let new = self.apply(current.as_ref());
-        let text = checked_manifest_text(&self.dir, &new)?;
+        let (text, tables) = checked_manifest_text(&self.dir, &new)?;
         if let Some(budget) = &new.budget {
             let overruns = budget.overruns(&new);
             if !overruns.is_empty() {
@@ -396,9 +397,17 @@ impl BundleWriter {
         // 2. Staged payloads recorded, then to their names, every payload the new manifest
         // names in place; 3. the manifest. On a failure the payloads moved in are taken out
         // again: the bundle stays as it was.
-        let named_now: BTreeSet<String> =
-            current.iter().flat_map(|m| m.assets.iter()).map(|a| a.file.clone()).collect();
-        let new_files: BTreeSet<String> = new.assets.iter().map(|a| a.file.clone()).collect();
+        let named_now: BTreeSet<String> = current.iter().flat_map(|m| m.files()).collect();
+        let new_files: BTreeSet<String> =
+            new.assets.iter().map(|a| a.file.clone()).chain(tables.iter().map(|(name, _)| name.clone())).collect();
+        // Tile tables are staged like payloads, unless the same bytes are in place.
+        for (name, bytes) in &tables {
+            let in_place = || crate::files::read_limited(&self.dir.join(name), bytes.len() as u64, "tile table size");
+            if !self.staged.contains_key(name) && !in_place().is_ok_and(|b| b == *bytes) {
+                let temp = stage(&self.dir, &self.tag, name, bytes)?;
+                self.staged.insert(name.clone(), temp);
+            }
+        }
         let recorded = read_retired(&self.dir);
         let mut retired = recorded.clone();
         // Recorded before anything moves: what this commit places, and what the manifest it
@@ -421,7 +430,7 @@ impl BundleWriter {
             Err(e) => return Err(BundleError::io(&readers_path, e)),
         };
         let mut moved = Vec::new();
-        let written = self.place_payloads(&new, &mut moved).and_then(|()| self.write_manifest(&text));
+        let written = self.place_payloads(&new, &tables, &mut moved).and_then(|()| self.write_manifest(&text));
         let manifest_written = match written {
             Ok(w) => w,
             Err(e) => {
@@ -509,7 +518,7 @@ impl BundleWriter {
 /// The text of `manifest` when a reader would accept it: every asset well-formed (ids, file
 /// names, descriptions, settings) and the manifest within the default [`Limits`] on assets and
 /// bytes; otherwise an error naming the first problem, before anything is written.
-fn checked_manifest_text(dir: &Path, manifest: &Manifest) -> Result<String, BundleError> {
+fn checked_manifest_text(dir: &Path, manifest: &Manifest) -> Result<(String, TableFiles), BundleError> {
     let limits = Limits::default();
     let path = dir.join(MANIFEST_FILE);
     if let Some((asset, message)) = manifest_problems(manifest, &limits).into_iter().next() {
@@ -523,7 +532,7 @@ fn checked_manifest_text(dir: &Path, manifest: &Manifest) -> Result<String, Bund
             limit: limits.max_assets as u64,
         });
     }
-    let text = manifest.to_ron();
+    let (text, tables) = manifest.encode();
     if text.len() as u64 > limits.max_manifest_bytes {
         return Err(BundleError::Limit {
             path,
@@ -535,7 +544,7 @@ fn checked_manifest_text(dir: &Path, manifest: &Manifest) -> Result<String, Bund
             limit: limits.max_manifest_bytes,
         });
     }
-    Ok(text)
+    Ok((text, tables))
 }
 
 /// The payload names recorded in `.hikage-retired`; names that are not plain payload names of
@@ -667,7 +676,12 @@ impl BundleWriter {
 
     /// Renames the staged payloads to their names (recording each in `moved`), then checks
     /// that every payload `new` names is in place.
-    fn place_payloads(&mut self, new: &Manifest, moved: &mut Vec<String>) -> Result<(), BundleError> {
+    fn place_payloads(
+        &mut self,
+        new: &Manifest,
+        tables: &TableFiles,
+        moved: &mut Vec<String>,
+    ) -> Result<(), BundleError> {
         while let Some((file, temp)) = self.staged.pop_first() {
             let target = self.dir.join(&file);
             if let Err(e) = fs::rename(&temp, &target) {
@@ -690,6 +704,18 @@ impl BundleWriter {
                             .into(),
                     });
                 }
+            }
+        }
+        for (name, bytes) in tables {
+            let path = self.dir.join(name);
+            if !fs::symlink_metadata(&path).is_ok_and(|m| m.is_file() && m.len() == bytes.len() as u64) {
+                return Err(BundleError::Payload {
+                    path,
+                    asset: name.clone(),
+                    message: "the tile table this commit names vanished (another writer removed it); nothing \
+                              was committed: bake again"
+                        .into(),
+                });
             }
         }
         Ok(())

@@ -6,9 +6,11 @@
 //! - [`brute_force`]: the independent reference the horizon baker is measured against.
 //! - [`fuzzing`]: one entry point per reader of untrusted input, for `fuzz/` and the test that
 //!   replays its regressions.
+//! - [`tile_tables`]: manifests of maps baked in tiles at sizes no test bakes.
 //!
 //! `cargo run --release -p hikage-devkit --example make_data` rebuilds `data/` byte for byte.
 
 pub mod brute_force;
 pub mod fuzzing;
 pub mod synth;
+pub mod tile_tables;

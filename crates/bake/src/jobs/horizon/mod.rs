@@ -251,6 +251,7 @@ impl HorizonJob {
                 settings: Settings::AmbientOcclusion(AmbientOcclusionSettings {
                     horizon: horizon_id.clone(),
                     directions: o.directions,
+                    tile: tile.cloned(),
                 }),
                 payload: horizon::ambient_occlusion(&baked).into(),
             });

@@ -89,6 +89,7 @@ impl HorizonTileJob {
             index: self.index,
             origin: (self.place.tile.x, self.place.tile.y),
             map_size: self.place.map,
+            level: 0,
         }
     }
 
