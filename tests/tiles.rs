@@ -282,3 +282,86 @@ fn twenty_thousand_tiles_open_and_validate() {
     let tile = index.tile("big.height", 0, (139, 138)).unwrap();
     assert_eq!(index.read_texture(&tile).unwrap(), texture);
 }
+
+/// The 150×110 map reduced by `2^level` as the pyramid's rule says, computed here on its own:
+/// node (i, j) is the mean height within 2^(level-1) texels of texel (i·s, j·s), summed row by
+/// row in f64.
+fn reduced(map: &[f32], level: u32) -> (u32, u32, Vec<f32>) {
+    let s = 1i64 << level;
+    let (w, h) = (((W - 1) as i64 / s + 1) as u32, ((H - 1) as i64 / s + 1) as u32);
+    let mut out = Vec::new();
+    for j in 0..h as i64 {
+        for i in 0..w as i64 {
+            let (mut sum, mut n) = (0f64, 0);
+            for y in (j * s - s / 2).max(0)..=(j * s + s / 2).min(H as i64 - 1) {
+                let xs = (i * s - s / 2).max(0)..=(i * s + s / 2).min(W as i64 - 1);
+                n += xs.clone().count();
+                sum += xs.map(|x| map[(y * W as i64 + x) as usize] as f64).sum::<f64>();
+            }
+            out.push((sum / n as f64) as f32);
+        }
+    }
+    (w, h, out)
+}
+
+#[test]
+fn each_level_of_a_pyramid_is_the_reduced_maps_whole_bake() {
+    let dir = Dir::new("tiles_levels");
+    let bytes = map_bytes();
+    dir.write("map.r32", &bytes);
+    dir.write(
+        "pipeline.ron",
+        r#"(output: "bundle", jobs: [Horizon(id: "lod", input: "map.r32", raw_size: (150, 110), texel_size: (2, 3),
+            directions: 12, edge: Clamp, max_distance: 40, near_field: 6, ao: true, tile: 32, levels: 9)])"#,
+    );
+    dir.run(&["bake"]);
+    dir.run(&["validate", "bundle"]);
+    let bundle = Bundle::open(&dir.path("bundle")).unwrap();
+    let map: Vec<f32> = bytes.chunks_exact(4).map(|b| f32::from_le_bytes(b.try_into().unwrap())).collect();
+    // 150×110 in 32² tiles: 5×4, then 75×55 (3×2), 38×28 (2×1), 19×14 (1×1, the last level).
+    let mut tiles = 0;
+    for (level, grid) in [(0, (5, 4)), (1, (3, 2)), (2, (2, 1)), (3, (1, 1))] {
+        let (w, h, heights) = reduced(&map, level);
+        let s = (1 << level) as f32;
+        let mut hf = hikage_bake::heightfield::Heightfield::from_samples(w, h, heights.clone());
+        hf.texel_size = (2.0 * s, 3.0 * s);
+        let params = hikage_bake::horizon::HorizonParams {
+            directions: 12,
+            edge: hikage_bundle::EdgeMode::Clamp,
+            max_distance: Some(40.0),
+            near_field: 6,
+            ..Default::default()
+        };
+        let whole = hikage_bake::horizon::bake(&hf, &params, &|_, _| {}).unwrap().texture;
+        for (tx, ty) in (0..grid.1).flat_map(|ty| (0..grid.0).map(move |tx| (tx, ty))) {
+            let suffix = hikage_bundle::tiles::tile_suffix(level, (tx, ty));
+            let horizon = bundle.read_texture(&format!("lod.horizon{suffix}")).unwrap();
+            let height = bundle.read_texture(&format!("lod.height{suffix}")).unwrap();
+            let place = bundle.asset(&format!("lod.horizon{suffix}")).unwrap().settings.tile().unwrap().clone();
+            assert_eq!((place.level, place.index, place.map_size), (level, (tx, ty), (w, h)), "{suffix}");
+            let (ox, oy) = (tx * 32, ty * 32);
+            assert_eq!(place.origin, (ox, oy));
+            assert_eq!((horizon.desc.width, horizon.desc.height), (33.min(w - ox), 33.min(h - oy)), "{suffix}");
+            for y in 0..horizon.desc.height {
+                for x in 0..horizon.desc.width {
+                    let at = ((oy + y) * w + ox + x) as usize;
+                    let got = f32::from_le_bytes(texel(&height, 0, x, y).try_into().unwrap());
+                    assert_eq!(got, heights[at], "height {suffix} ({x}, {y})");
+                    for k in 0..12 {
+                        let want = texel(&whole, k, ox + x, oy + y);
+                        assert_eq!(texel(&horizon, k, x, y), want, "horizon {suffix} ({x}, {y}) direction {k}");
+                    }
+                }
+            }
+            tiles += 1;
+        }
+    }
+    assert_eq!(tiles, 20 + 6 + 2 + 1);
+    assert_eq!(bundle.manifest().assets.len(), tiles * 3, "no level past the one-tile level");
+    // A torus needs sides that halve: 150×110 has no level 2.
+    let wrapped = r#"(output: "bundle", jobs: [Horizon(id: "lod", input: "map.r32", raw_size: (150, 110),
+        edge: Wrap, max_distance: 40, tile: 32, levels: 3)])"#;
+    dir.write("pipeline.ron", wrapped);
+    let err = stderr(&dir.run_expecting(&["bake"], 1));
+    assert!(err.contains("lod") && err.contains("has no level 2") && err.contains("multiples of 4"), "{err}");
+}

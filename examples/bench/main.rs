@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! cargo run --release --example bench              # every table
-//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load, size, tiles, fourier, bc
+//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load, size, tiles, pyramid, fourier, bc
 //! cargo run --release --example bench -- scale     # tiled bakes: ~40 min, ~50 GiB of disk
 //! cargo run --release --example bench -- build-script   # clean builds of a game crate: ~15 min
 //! ```
@@ -19,6 +19,7 @@ mod fourier;
 mod hair;
 mod horizon;
 mod load;
+mod pyramid;
 mod relief;
 mod scale;
 mod size;
@@ -101,6 +102,9 @@ fn main() {
     }
     if wanted("size") {
         size::run();
+    }
+    if wanted("pyramid") {
+        pyramid::run();
     }
     if wanted("tiles") {
         tiles::run();

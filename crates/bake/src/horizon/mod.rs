@@ -33,6 +33,7 @@ mod grid;
 mod hull;
 mod near;
 mod params;
+pub mod pyramid;
 mod schedule;
 mod steps;
 mod sweep;

@@ -68,6 +68,14 @@ pub struct HorizonOptions {
     #[serde(skip_serializing_if = "Option::is_none")]
     #[cfg_attr(feature = "clap", arg(long, value_name = "SIZE"))]
     pub tile: Option<u32>,
+    /// Levels of detail of a tiled bake, level 0 included: level `k` is the map reduced by
+    /// `2^k` (each coarse node the mean height within `2^(k-1)` texels of it), baked in
+    /// tiles of the same size with the same max_distance; ids `<id>.horizon.L<k>.<tx>_<ty>`.
+    /// Levels past the one that fits in a single tile are not made (a large number gives
+    /// every level). None: level 0 only.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "clap", arg(long, value_name = "N", requires = "tile"))]
+    pub levels: Option<u32>,
     /// Payload compression: `Zstd(level)` (1–22), or `None` (`--zstd 0`).
     #[cfg_attr(
         feature = "clap",
@@ -87,6 +95,7 @@ impl Default for HorizonOptions {
             format: HorizonFormat::Rg16Float,
             ao: false,
             tile: None,
+            levels: None,
             compression: crate::Compression::default(),
         }
     }
@@ -167,7 +176,8 @@ impl Baker for HorizonJob {
     fn canonical_settings(&self) -> String {
         let o = &self.options;
         // The tile size is appended only when given, so untiled jobs keep their hash's form.
-        let tile = o.tile.map(|t| format!(";tile={t}")).unwrap_or_default();
+        let tile = o.tile.map(|t| format!(";tile={t}")).unwrap_or_default()
+            + &o.levels.map(|n| format!(";levels={n}")).unwrap_or_default();
         format!(
             "{};directions={};edge={:?};max_distance={:?};near_field={};format={:?};ao={}{tile}",
             canonical(&self.source, o.height_format),
@@ -188,6 +198,11 @@ impl Baker for HorizonJob {
                 return Err("tile must be at least 1 texel".into());
             }
             horizon::halo(&self.params(), self.source.texel_size).map(|_| ())?;
+        }
+        match (self.options.levels, self.options.tile) {
+            (Some(0), _) => return Err("levels must be at least 1 (level 0, the map itself)".into()),
+            (Some(_), None) => return Err("levels are baked in tiles: set tile too".into()),
+            _ => {}
         }
         Ok(())
     }
@@ -217,8 +232,8 @@ impl Baker for HorizonJob {
 
 impl HorizonJob {
     /// The assets of baked horizons and the heights they came from: `<id>.height`, `<id>.ao`
-    /// with `ao`, and `<id>.horizon`; for a tile, each id followed by `.<tx>_<ty>` and the
-    /// heights and horizons placed in the map.
+    /// with `ao`, and `<id>.horizon`; for a tile, each id followed by `.<tx>_<ty>` (`.L<k>.<tx>_<ty>`
+    /// at level `k`) and the heights and horizons placed in the map.
     fn assets(
         &self,
         hf: &Heightfield,
@@ -226,7 +241,7 @@ impl HorizonJob {
         tile: Option<&TilePlacement>,
     ) -> Result<Vec<BakedAsset>, BakeError> {
         let o = &self.options;
-        let suffix = tile.map(|t| format!(".{}_{}", t.index.0, t.index.1)).unwrap_or_default();
+        let suffix = tile.map(|t| hikage_bundle::tiles::tile_suffix(t.level, t.index)).unwrap_or_default();
         let horizon_id = format!("{}{suffix}", self.horizon_id());
         let mut height = o.height_format.asset(&format!("{}{suffix}", self.height_id()), hf)?;
         if let Settings::Heightfield(s) = &mut height.settings {

@@ -1,7 +1,8 @@
 //! One tile of a tiled `Horizon` job: a part of its own, baked from a window of the input.
 //!
 //! A job with `tile: Some(size)` is split into square tiles, one every `size` texels, numbered
-//! by column and row in the grid of tiles. Each holds `size + 1` texels a side (fewer at the
+//! by column and row in the grid of tiles; with `levels`, each level of detail
+//! ([`horizon::pyramid`]) is split the same way in its own texels. Each holds `size + 1` texels a side (fewer at the
 //! map's right and bottom edges): its last column and row are the next tile's first, so meshes
 //! drawn through texel centres meet without a crack. Each tile reads
 //! its window of the input (the tile and a halo of `max_distance`) and writes the tile's
@@ -25,12 +26,17 @@ use crate::jobs::{BakedAsset, Baker, JobContext};
 /// One tile of a tiled horizon job.
 #[derive(Clone, Debug)]
 pub struct HorizonTileJob {
-    /// `<job id>.<tx>_<ty>`.
+    /// `<job id>.<tx>_<ty>`, or `<job id>.L<k>.<tx>_<ty>` at level `k`.
     id: String,
     job: HorizonJob,
-    /// Column and row in the grid of tiles.
+    /// Level of detail: the map reduced by `2^level` ([`horizon::pyramid`]).
+    level: u32,
+    /// Column and row in the level's grid of tiles.
     index: (u32, u32),
+    /// The tile and its window, in the level's texels.
     place: TileWindow,
+    /// The input's size (level 0).
+    map: (u32, u32),
     /// BLAKE3 of the input file, which the tile's input hash stands on.
     input_digest: String,
     /// The value the input's voids take (its lowest valid sample), found once for all tiles.
@@ -43,36 +49,46 @@ pub(super) fn tiles(job: &HorizonJob, size: u32, ctx: &JobContext) -> Result<Vec
     let limits = ctx.limits;
     let path = job.source.path(ctx.base_dir);
     let setting = |message: String| ctx.setting(&job.id, message);
-    let halo = horizon::halo(&job.params(), job.source.texel_size).map_err(setting)?;
     let mut source = job.source.open(ctx)?;
-    let (w, h) = source.size();
+    let map = source.size();
     let void_fill = source.void_fill()?;
     let input_digest = crate::hash::file_digest(&path)?;
     let mut parts: Vec<Box<dyn Baker>> = Vec::new();
     // Tiles start every `size` texels and hold one more, the next tile's first column and row:
     // a mesh through texel centres then meets its neighbour's without a crack.
     let count = |n: u32| (n.saturating_sub(1)).div_ceil(size).max(1);
-    for ty in 0..count(h) {
-        for tx in 0..count(w) {
-            let (x, y) = (tx * size, ty * size);
-            let rect = Rect::new(x, y, size.saturating_add(1).min(w - x), size.saturating_add(1).min(h - y));
-            let place = TileWindow::new((w, h), rect, halo, job.options.edge);
-            let (ww, wh) = (place.window.width, place.window.height);
-            if ww.max(wh) > limits.max_dimension {
-                return Err(setting(format!(
-                    "a {}×{} tile with a halo of {halo:?} texels (max_distance {:?}) reads a {ww}×{wh} window of \
-                     heights, above the limit of {}: lower tile or max_distance",
-                    rect.width, rect.height, job.options.max_distance, limits.max_dimension
-                )));
+    for level in 0..job.options.levels.unwrap_or(1) {
+        let (w, h) = horizon::pyramid::level_size(map, level, job.options.edge).map_err(setting)?;
+        let s = (1u32 << level) as f32;
+        let texel = (job.source.texel_size.0 * s, job.source.texel_size.1 * s);
+        let halo = horizon::halo(&job.params(), texel).map_err(setting)?;
+        for ty in 0..count(h) {
+            for tx in 0..count(w) {
+                let (x, y) = (tx * size, ty * size);
+                let rect = Rect::new(x, y, size.saturating_add(1).min(w - x), size.saturating_add(1).min(h - y));
+                let place = TileWindow::new((w, h), rect, halo, job.options.edge);
+                let (ww, wh) = (place.window.width, place.window.height);
+                if ww.max(wh) > limits.max_dimension {
+                    return Err(setting(format!(
+                        "a {}×{} tile with a halo of {halo:?} texels (max_distance {:?}) reads a {ww}×{wh} window of \
+                         heights, above the limit of {}: lower tile or max_distance",
+                        rect.width, rect.height, job.options.max_distance, limits.max_dimension
+                    )));
+                }
+                parts.push(Box::new(HorizonTileJob {
+                    id: format!("{}{}", job.id, hikage_bundle::tiles::tile_suffix(level, (tx, ty))),
+                    job: job.clone(),
+                    level,
+                    index: (tx, ty),
+                    place,
+                    map,
+                    input_digest: input_digest.clone(),
+                    void_fill,
+                }));
             }
-            parts.push(Box::new(HorizonTileJob {
-                id: format!("{}.{tx}_{ty}", job.id),
-                job: job.clone(),
-                index: (tx, ty),
-                place,
-                input_digest: input_digest.clone(),
-                void_fill,
-            }));
+        }
+        if count(w) == 1 && count(h) == 1 {
+            break;
         }
     }
     Ok(parts)
@@ -80,7 +96,7 @@ pub(super) fn tiles(job: &HorizonJob, size: u32, ctx: &JobContext) -> Result<Vec
 
 impl HorizonTileJob {
     fn suffix(&self) -> String {
-        format!("{}_{}", self.index.0, self.index.1)
+        hikage_bundle::tiles::tile_suffix(self.level, self.index)
     }
 
     fn placement(&self) -> TilePlacement {
@@ -89,7 +105,7 @@ impl HorizonTileJob {
             index: self.index,
             origin: (self.place.tile.x, self.place.tile.y),
             map_size: self.place.map,
-            level: 0,
+            level: self.level,
         }
     }
 
@@ -124,12 +140,14 @@ impl Baker for HorizonTileJob {
     }
 
     fn outputs(&self) -> Vec<String> {
-        self.job.outputs().into_iter().map(|id| format!("{id}.{}", self.suffix())).collect()
+        self.job.outputs().into_iter().map(|id| format!("{id}{}", self.suffix())).collect()
     }
 
     fn canonical_settings(&self) -> String {
+        // The level only when above 0, so level-0 tiles keep their hash's form.
+        let level = if self.level > 0 { format!(";level={}", self.level) } else { String::new() };
         format!(
-            "{};tile_index=({},{});input_blake3={}",
+            "{};tile_index=({},{}){level};input_blake3={}",
             self.job.canonical_settings(),
             self.index.0,
             self.index.1,
@@ -148,8 +166,8 @@ impl Baker for HorizonTileJob {
     fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
         let path = self.job.source.path(ctx.base_dir);
         let mut source = self.job.source.open(ctx)?;
-        if source.size() != self.place.map {
-            let (w, h) = self.place.map;
+        if source.size() != self.map {
+            let (w, h) = self.map;
             let (fw, fh) = source.size();
             return Err(BakeError::input(
                 &path,
@@ -158,16 +176,24 @@ impl Baker for HorizonTileJob {
             ));
         }
         let Rect { x: wx, y: wy, width: ww, height: wh } = self.place.window;
-        let samples = source.read_window((wx, wy), (ww, wh), self.void_fill)?;
-        // The checks a whole-map load makes, on the samples this tile reads.
         let heights = &self.job.source;
-        heights.check_samples(&path, &samples, ((wx, wy), ww, self.place.map), &self.job.sample_check())?;
+        let samples = if self.level == 0 {
+            let samples = source.read_window((wx, wy), (ww, wh), self.void_fill)?;
+            // The checks a whole-map load makes, on the samples this tile reads (level 0
+            // reads every sample a coarser level reduces).
+            heights.check_samples(&path, &samples, ((wx, wy), ww, self.map), &self.job.sample_check())?;
+            samples
+        } else {
+            let edge = self.job.options.edge;
+            horizon::pyramid::read_reduced(&mut source, self.map, self.level, edge, self.place.window, self.void_fill)?
+        };
         let (normalized, source_channel) = source.channel();
+        let s = (1u32 << self.level) as f32;
         let window = Heightfield {
             width: ww,
             height: wh,
             samples,
-            texel_size: heights.texel_size,
+            texel_size: (heights.texel_size.0 * s, heights.texel_size.1 * s),
             height_scale: heights.height_scale,
             height_offset: heights.height_offset,
             normalized,
