@@ -15,6 +15,7 @@ mod gpu_fit;
 mod gpu_hair;
 mod gpu_horizon;
 mod gpu_relief;
+mod gpu_stream;
 mod hostile;
 mod shard;
 mod tiles;

@@ -165,7 +165,7 @@ mod wgsl_tests {
             (
                 "terrain",
                 "TerrainUniform",
-                layout!(TerrainUniform; scene, texel_size, height_scale, height_offset, size, has_ao, encoding),
+                layout!(TerrainUniform; scene, texel_size, height_scale, height_offset, size, has_ao, skirt, encoding, apron),
             ),
             (
                 "surface",

@@ -19,11 +19,13 @@
 //!   scaled so one tile of the map spans its world size ([`reference::horizon_surface_light`]).
 
 pub mod reference;
+mod stream;
 mod surface;
 mod terrain;
 
 use hikage_bundle::{EdgeMode, HorizonSettings, TextureFormat};
 
+pub use stream::{MAX_TILE_SIDE, StreamOptions, StreamStats, TerrainStream};
 pub use surface::{SurfaceFrame, SurfaceShadows, SurfaceUniform};
 pub use terrain::{Sun, TerrainExtent, TerrainFrame, TerrainShadows, TerrainUniform};
 

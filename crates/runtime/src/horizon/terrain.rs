@@ -64,7 +64,7 @@ impl Default for TerrainFrame {
     }
 }
 
-/// The `TerrainUniform` of the terrain WGSL, as it is in the uniform buffer (240 bytes).
+/// The `TerrainUniform` of the terrain WGSL, as it is in the uniform buffer (256 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct TerrainUniform {
@@ -82,10 +82,16 @@ pub struct TerrainUniform {
     pub size: [u32; 2],
     /// 1 when an ambient-occlusion map is bound.
     pub has_ao: u32,
-    /// Padding.
-    pub _pad: u32,
+    /// Depth in world units of the skirt hung under the edges (0: none, as for a whole map;
+    /// streamed tiles have one to hide cracks between levels of detail).
+    pub skirt: f32,
     /// How the horizon texture is stored.
     pub encoding: HorizonEncoding,
+    /// Texels of heights around the terrain's own in its heights texture (0 for a whole map; 1
+    /// for a streamed tile, whose edge normals then see the neighbouring tile's heights).
+    pub apron: u32,
+    /// Padding.
+    pub _pad: [u32; 3],
 }
 
 /// A heightfield with horizon shadows from a sun and ambient occlusion from the sky
@@ -184,80 +190,11 @@ impl TerrainShadows {
         ao: Option<&str>,
         options: &DrawOptions,
     ) -> Result<TerrainShadows, RuntimeError> {
-        let map = gpu.texture(horizon)?;
-        let settings = horizon_settings(map)?;
-        let heights = gpu.texture(&settings.heightfield)?;
-        let hf = heightfield_settings(heights)?;
-        if heights.desc.width < 2 || heights.desc.height < 2 {
-            return Err(RuntimeError::Asset {
-                asset: settings.heightfield.clone(),
-                message: "a terrain needs at least 2×2 texels".into(),
-            });
-        }
-        let ao = ao.map(|id| ambient_occlusion(gpu, id, heights)).transpose()?;
-        let filterable = horizon_filterable(device, map.desc.format);
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("hikage terrain"),
-            entries: &[
-                gpu::uniform_entry::<TerrainUniform>(0),
-                gpu::texture_entry(1, wgpu::TextureViewDimension::D3, filterable),
-                gpu::sampler_entry(2, filterable),
-                gpu::texture_entry(3, wgpu::TextureViewDimension::D2, false),
-                gpu::texture_entry(4, wgpu::TextureViewDimension::D2, false),
-            ],
-        });
-        let statics = TerrainUniform {
-            texel_size: [settings.texel_size.0, settings.texel_size.1],
-            height_scale: hf.height_scale,
-            height_offset: hf.height_offset,
-            size: [heights.desc.width, heights.desc.height],
-            has_ao: u32::from(ao.is_some()),
-            encoding: HorizonEncoding::new(map.desc.format, settings),
-            ..bytemuck::Zeroable::zeroed()
-        };
-        let uniform = gpu::uniform_buffer(device, queue, "hikage terrain", &statics);
-        let sampler = horizon_sampler(device, settings.edge, filterable);
-        let no_ao = gpu::constant_texture(device, queue, 0.0);
-        let bind_group = gpu::checked(device, horizon, || {
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("hikage terrain"),
-                layout: &layout,
-                entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&map.view) },
-                    wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&sampler) },
-                    wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&heights.view) },
-                    wgpu::BindGroupEntry {
-                        binding: 4,
-                        resource: wgpu::BindingResource::TextureView(ao.map_or(&no_ao, |t| &t.view)),
-                    },
-                ],
-            })
-        })?;
-        let program = gpu::Program::new(
-            device,
-            horizon,
-            format!("{HORIZON_WGSL}\n{TERRAIN_WGSL}"),
-            (layout, bind_group),
-            gpu::Stages { vs: "terrain_vs", fs: "terrain_fs", fs_visibility: "terrain_fs_visibility" },
-            &[],
-            options,
-        )?;
-        let vertices = 6 * (heights.desc.width - 1) * (heights.desc.height - 1);
-        let (w, h) = (heights.desc.width, heights.desc.height);
-        let (lo, hi) = heights.range.unwrap_or((0.0, 0.0));
-        let world = |v: f32| hf.height_offset + hf.height_scale * v;
-        let (low, high) = (world(lo).min(world(hi)), world(lo).max(world(hi)));
-        let (sx, sy) = settings.texel_size;
-        let extent = TerrainExtent {
-            size: (w, h),
-            texel_size: (sx, sy),
-            height_range: (low, high),
-            min: Vec3::new(0.5 * sx, low, 0.5 * sy),
-            max: Vec3::new((w as f32 - 0.5) * sx, high, (h as f32 - 0.5) * sy),
-        };
-        let mut assets = vec![horizon.to_string(), settings.heightfield.clone()];
-        assets.extend(ao.map(|a| a.asset.id.clone()));
+        let filterable = horizon_filterable(device, gpu.texture(horizon)?.desc.format);
+        let layout = terrain_layout(device, filterable);
+        let binding = TerrainBinding::new(device, queue, gpu, (horizon, ao), (0.0, 0), (&layout, filterable))?;
+        let program = terrain_program(device, horizon, (layout, binding.bind_group.clone()), options)?;
+        let TerrainBinding { uniform, statics, vertices, extent, assets, .. } = binding;
         Ok(TerrainShadows { program, uniform, statics, vertices, extent, assets })
     }
 
@@ -293,12 +230,7 @@ impl TerrainShadows {
     /// The uniform for `frame`: the sun taken into the terrain frame, with the terrain's own
     /// constants.
     pub fn uniform(&self, frame: &TerrainFrame) -> TerrainUniform {
-        let to_terrain = frame.model.inverse();
-        let sun = to_terrain.transform_vector3(frame.sun.direction).normalize_or(Vec3::Y);
-        let light = sun.extend(frame.sun.angular_radius);
-        let scene =
-            SceneUniform::new(frame.view_proj, frame.model, light, frame.sun.color, frame.sky_color, frame.albedo);
-        TerrainUniform { scene, ..self.statics }
+        uniform_for(&self.statics, frame)
     }
 
     /// Writes the uniform for `frame`; the next submitted draw uses it.
@@ -314,6 +246,138 @@ impl TerrainShadows {
     }
 }
 
+/// `statics` with the per-frame head for `frame`: the sun taken into the terrain frame.
+fn uniform_for(statics: &TerrainUniform, frame: &TerrainFrame) -> TerrainUniform {
+    let to_terrain = frame.model.inverse();
+    let sun = to_terrain.transform_vector3(frame.sun.direction).normalize_or(Vec3::Y);
+    let light = sun.extend(frame.sun.angular_radius);
+    let scene = SceneUniform::new(frame.view_proj, frame.model, light, frame.sun.color, frame.sky_color, frame.albedo);
+    TerrainUniform { scene, ..*statics }
+}
+
+/// The bind group layout of a terrain: uniform, horizon map (filterable or not) and sampler,
+/// heights, occlusion.
+pub(super) fn terrain_layout(device: &wgpu::Device, filterable: bool) -> wgpu::BindGroupLayout {
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("hikage terrain"),
+        entries: &[
+            gpu::uniform_entry::<TerrainUniform>(0),
+            gpu::texture_entry(1, wgpu::TextureViewDimension::D3, filterable),
+            gpu::sampler_entry(2, filterable),
+            gpu::texture_entry(3, wgpu::TextureViewDimension::D2, false),
+            gpu::texture_entry(4, wgpu::TextureViewDimension::D2, false),
+        ],
+    })
+}
+
+/// The terrain pipeline for `options`' targets around `layout`, bound to `bind_group`.
+pub(super) fn terrain_program(
+    device: &wgpu::Device,
+    label: &str,
+    (layout, bind_group): (wgpu::BindGroupLayout, wgpu::BindGroup),
+    options: &DrawOptions,
+) -> Result<gpu::Program, RuntimeError> {
+    gpu::Program::new(
+        device,
+        label,
+        format!("{HORIZON_WGSL}\n{TERRAIN_WGSL}"),
+        (layout, bind_group),
+        gpu::Stages { vs: "terrain_vs", fs: "terrain_fs", fs_visibility: "terrain_fs_visibility" },
+        &[],
+        options,
+    )
+}
+
+/// One terrain's own resources: its uniform buffer and constants, its bind group, its vertex
+/// count and extent. The one-mesh terrain holds one; a streamed terrain one per resident tile.
+#[derive(Debug)]
+pub(super) struct TerrainBinding {
+    pub uniform: wgpu::Buffer,
+    pub statics: TerrainUniform,
+    pub bind_group: wgpu::BindGroup,
+    pub vertices: u32,
+    pub extent: TerrainExtent,
+    pub assets: Vec<String>,
+}
+
+impl TerrainBinding {
+    /// The bindings of `horizon` (with its heightfield, holding `apron` more texels on every
+    /// side) and `ao` in `gpu`, with a skirt of `skirt` world units, for a `layout` whose
+    /// horizon map is `filterable`.
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        gpu: &GpuBundle,
+        (horizon, ao): (&str, Option<&str>),
+        (skirt, apron): (f32, u32),
+        (layout, filterable): (&wgpu::BindGroupLayout, bool),
+    ) -> Result<TerrainBinding, RuntimeError> {
+        let map = gpu.texture(horizon)?;
+        let settings = horizon_settings(map)?;
+        let heights = gpu.texture(&settings.heightfield)?;
+        let hf = heightfield_settings(heights)?;
+        let (w, h) = (heights.desc.width.saturating_sub(2 * apron), heights.desc.height.saturating_sub(2 * apron));
+        if w < 2 || h < 2 {
+            return Err(RuntimeError::Asset {
+                asset: settings.heightfield.clone(),
+                message: "a terrain needs at least 2×2 texels".into(),
+            });
+        }
+        let ao = ao.map(|id| ambient_occlusion(gpu, id, (w, h))).transpose()?;
+        let statics = TerrainUniform {
+            texel_size: [settings.texel_size.0, settings.texel_size.1],
+            height_scale: hf.height_scale,
+            height_offset: hf.height_offset,
+            size: [w, h],
+            has_ao: u32::from(ao.is_some()),
+            skirt,
+            encoding: HorizonEncoding::new(map.desc.format, settings),
+            apron,
+            ..bytemuck::Zeroable::zeroed()
+        };
+        let uniform = gpu::uniform_buffer(device, queue, "hikage terrain", &statics);
+        let sampler = horizon_sampler(device, settings.edge, filterable);
+        let no_ao = gpu::constant_texture(device, queue, 0.0);
+        let bind_group = gpu::checked(device, horizon, || {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("hikage terrain"),
+                layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&map.view) },
+                    wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&sampler) },
+                    wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&heights.view) },
+                    wgpu::BindGroupEntry {
+                        binding: 4,
+                        resource: wgpu::BindingResource::TextureView(ao.map_or(&no_ao, |t| &t.view)),
+                    },
+                ],
+            })
+        })?;
+        let skirts = if skirt > 0.0 { 12 * 2 * ((w - 1) + (h - 1)) } else { 0 };
+        let vertices = 6 * (w - 1) * (h - 1) + skirts;
+        let (lo, hi) = heights.range.unwrap_or((0.0, 0.0));
+        let world = |v: f32| hf.height_offset + hf.height_scale * v;
+        let (low, high) = (world(lo).min(world(hi)), world(lo).max(world(hi)));
+        let (sx, sy) = settings.texel_size;
+        let extent = TerrainExtent {
+            size: (w, h),
+            texel_size: (sx, sy),
+            height_range: (low, high),
+            min: Vec3::new(0.5 * sx, low, 0.5 * sy),
+            max: Vec3::new((w as f32 - 0.5) * sx, high, (h as f32 - 0.5) * sy),
+        };
+        let mut assets = vec![horizon.to_string(), settings.heightfield.clone()];
+        assets.extend(ao.map(|a| a.asset.id.clone()));
+        Ok(TerrainBinding { uniform, statics, bind_group, vertices, extent, assets })
+    }
+
+    /// The uniform for `frame`: the sun taken into the terrain frame, with the constants.
+    pub fn uniform(&self, frame: &TerrainFrame) -> TerrainUniform {
+        uniform_for(&self.statics, frame)
+    }
+}
+
 /// The horizon settings of `map`, or an error saying it is not a horizon asset.
 pub(super) fn horizon_settings(map: &GpuTexture) -> Result<&HorizonSettings, RuntimeError> {
     map.asset.settings.horizon().ok_or_else(|| RuntimeError::Asset {
@@ -324,16 +388,16 @@ pub(super) fn horizon_settings(map: &GpuTexture) -> Result<&HorizonSettings, Run
 
 /// The `AmbientOcclusion` asset `id` of `gpu` for a terrain of `heights`, or an error naming
 /// `id`: another kind (heights drawn as occlusion) or another size.
-fn ambient_occlusion<'a>(gpu: &'a GpuBundle, id: &str, heights: &GpuTexture) -> Result<&'a GpuTexture, RuntimeError> {
+fn ambient_occlusion<'a>(gpu: &'a GpuBundle, id: &str, (w, h): (u32, u32)) -> Result<&'a GpuTexture, RuntimeError> {
     let ao = gpu.texture(id)?;
     let bad = |message: String| RuntimeError::Asset { asset: id.to_string(), message };
     if ao.asset.kind != AssetKind::AmbientOcclusion {
         return Err(bad(format!("expected an ambient_occlusion asset, found a {}", ao.asset.kind.name())));
     }
-    if (ao.desc.width, ao.desc.height) != (heights.desc.width, heights.desc.height) {
+    if (ao.desc.width, ao.desc.height) != (w, h) {
         return Err(bad(format!(
-            "its {}×{} texels do not match the {}×{} heightfield",
-            ao.desc.width, ao.desc.height, heights.desc.width, heights.desc.height
+            "its {}×{} texels do not match the {w}×{h} heightfield",
+            ao.desc.width, ao.desc.height
         )));
     }
     Ok(ao)

@@ -15,8 +15,9 @@ struct TerrainUniform {
     height_offset: f32,
     size: vec2<u32>,            // heightfield width, height
     has_ao: u32,                // 1 when terrain_ao holds the baked occlusion
-    _pad: u32,
+    skirt: f32,                 // depth of the skirt under the edges (world units), 0: none
     encoding: HorizonEncoding,
+    apron: u32,                 // heights texels around the terrain's own (a streamed tile's neighbours')
 }
 
 @group(0) @binding(0) var<uniform> terrain: TerrainUniform;
@@ -25,9 +26,10 @@ struct TerrainUniform {
 @group(0) @binding(3) var terrain_heights: texture_2d<f32>;
 @group(0) @binding(4) var terrain_ao: texture_2d<f32>;
 
-// World height at texel (i, j), clamped to the map.
+// World height at texel (i, j), clamped to the heights held (the map, and a tile's apron).
 fn terrain_height(texel: vec2<i32>) -> f32 {
-    let t = clamp(texel, vec2<i32>(0), vec2<i32>(terrain.size) - 1);
+    let apron = i32(terrain.apron);
+    let t = clamp(texel, vec2<i32>(-apron), vec2<i32>(terrain.size) - 1 + apron) + apron;
     return terrain.height_offset + terrain.height_scale * textureLoad(terrain_heights, t, 0).r;
 }
 
@@ -67,17 +69,53 @@ struct TerrainVertex {
     @location(1) normal: vec3<f32>,
 }
 
-@vertex
-fn terrain_vs(@builtin(vertex_index) index: u32) -> TerrainVertex {
-    let columns = terrain.size.x - 1u;
-    let quad = index / 6u;
-    var corners = array<vec2<u32>, 6>(vec2<u32>(0u, 0u), vec2<u32>(1u, 0u), vec2<u32>(0u, 1u), vec2<u32>(0u, 1u), vec2<u32>(1u, 0u), vec2<u32>(1u, 1u));
-    let texel = vec2<i32>(vec2<u32>(quad % columns, quad / columns) + corners[index % 6u]);
+// The vertex of texel (i, j)'s centre, `drop` world units below the surface.
+fn terrain_vertex(texel: vec2<i32>, drop: f32) -> TerrainVertex {
     var out: TerrainVertex;
-    out.clip = terrain.scene.view_proj * (terrain.scene.model * vec4<f32>(terrain_position(texel), 1.0));
+    let p = terrain_position(texel) - vec3<f32>(0.0, drop, 0.0);
+    out.clip = terrain.scene.view_proj * (terrain.scene.model * vec4<f32>(p, 1.0));
     out.uv = (vec2<f32>(texel) + 0.5) / vec2<f32>(terrain.size);
     out.normal = terrain_normal(texel);
     return out;
+}
+
+// The grid: two triangles per quad of texel centres. With a skirt, then a wall hanging `skirt`
+// below each edge segment (both windings, 12 vertices a segment): tiles of different levels of
+// detail meet without a visible crack.
+@vertex
+fn terrain_vs(@builtin(vertex_index) index: u32) -> TerrainVertex {
+    let columns = terrain.size.x - 1u;
+    let rows = terrain.size.y - 1u;
+    let grid = 6u * columns * rows;
+    if (index < grid) {
+        let quad = index / 6u;
+        var corners = array<vec2<u32>, 6>(vec2<u32>(0u, 0u), vec2<u32>(1u, 0u), vec2<u32>(0u, 1u), vec2<u32>(0u, 1u), vec2<u32>(1u, 0u), vec2<u32>(1u, 1u));
+        return terrain_vertex(vec2<i32>(vec2<u32>(quad % columns, quad / columns) + corners[index % 6u]), 0.0);
+    }
+    // Segments: the first row, the last row, the first column, the last column.
+    let k = index - grid;
+    var segment = k / 12u;
+    var a: vec2<u32>;
+    var step: vec2<u32>;
+    if (segment < columns) {
+        a = vec2<u32>(segment, 0u);
+        step = vec2<u32>(1u, 0u);
+    } else if (segment < 2u * columns) {
+        a = vec2<u32>(segment - columns, rows);
+        step = vec2<u32>(1u, 0u);
+    } else if (segment < 2u * columns + rows) {
+        a = vec2<u32>(0u, segment - 2u * columns);
+        step = vec2<u32>(0u, 1u);
+    } else {
+        a = vec2<u32>(columns, segment - 2u * columns - rows);
+        step = vec2<u32>(0u, 1u);
+    }
+    // (along the segment, down): two triangles, then the same two wound the other way.
+    var corners = array<vec2<u32>, 12>(
+        vec2<u32>(0u, 0u), vec2<u32>(1u, 0u), vec2<u32>(0u, 1u), vec2<u32>(0u, 1u), vec2<u32>(1u, 0u), vec2<u32>(1u, 1u),
+        vec2<u32>(0u, 0u), vec2<u32>(0u, 1u), vec2<u32>(1u, 0u), vec2<u32>(0u, 1u), vec2<u32>(1u, 1u), vec2<u32>(1u, 0u));
+    let c = corners[k % 12u];
+    return terrain_vertex(vec2<i32>(a + step * c.x), f32(c.y) * terrain.skirt);
 }
 
 // The terrain's shading; visibility x: sun visibility, y: 1 (covered), z: sky visibility.
