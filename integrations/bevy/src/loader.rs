@@ -89,8 +89,25 @@ impl AssetLoader for BundleLoader {
         }
         let text = String::from_utf8(text).map_err(|e| manifest_error(format!("expected UTF-8 text: {e}")))?;
         // The parser's error names the path (and line and column) itself.
-        let manifest = Manifest::parse(&text, Path::new(&path))
-            .map_err(|e| BundleLoadError::Manifest { path: path.clone(), message: e.to_string() })?;
+        let parse_error =
+            |e: hikage_bundle::BundleError| BundleLoadError::Manifest { path: path.clone(), message: e.to_string() };
+        // A map baked in tiles is listed in a tile table beside the manifest: read each first.
+        let mut tables = std::collections::BTreeMap::new();
+        for set in Manifest::tile_sets(&text, Path::new(&path)).map_err(parse_error)? {
+            if set.byte_length > limits.max_manifest_bytes || !hikage_bundle::is_valid_asset_id(&set.table) {
+                return Err(manifest_error(format!(
+                    "tile table {:?} of {} bytes is not one a reader takes",
+                    set.table, set.byte_length
+                )));
+            }
+            let table_path = context.path().path().with_file_name(&set.table);
+            let bytes = context.read_asset_bytes(table_path).await.map_err(|e| manifest_error(e.to_string()))?;
+            tables.insert(set.table, bytes);
+        }
+        let manifest = Manifest::parse_with_tables(&text, Path::new(&path), &limits, &mut |set| {
+            Ok(tables.remove(&set.table).unwrap_or_default())
+        })
+        .map_err(parse_error)?;
         if let Some((asset, message)) =
             hikage_bundle::validate::manifest_problems(&manifest, &limits).into_iter().next()
         {
