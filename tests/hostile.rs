@@ -306,14 +306,14 @@ fn heights_and_horizons_that_would_not_be_finite_are_refused_or_saturated_before
 #[test]
 fn tiles_are_checked_at_the_split() {
     let pipeline = r#"(output: "bundle", jobs: [Heightfield(id: "good", input: "map.r32")])"#;
-    let big: Vec<u8> = f32s((0..96 * 96).map(|i| (i % 7) as f32));
+    let big: Vec<u8> = f32s((0..200 * 200).map(|i| (i % 7) as f32));
     let dir = baked("hostile_tiles", pipeline, &[("map.r32", map32()), ("big.r32", big)]);
-    // One tile per texel of a 96² map: 27,648 assets, a manifest no reader could open.
+    // One tile per texel of a 200² map: 118,803 assets, more than a reader accepts.
     dir.write(
         "pipeline.ron",
         r#"(output: "bundle", jobs: [Horizon(id: "t", input: "big.r32", directions: 4, max_distance: 2, tile: 1, ao: true)])"#,
     );
-    bake_and_check_refuse(&dir, 1, &["pipeline.ron", "job `t`", "above the 10000", "larger tiles"]);
+    bake_and_check_refuse(&dir, 1, &["pipeline.ron", "job `t`", "above the 100000", "larger tiles"]);
     // A tile's ids are checked against every other job's.
     dir.write(
         "pipeline.ron",

@@ -2,12 +2,13 @@
 //!
 //! ```text
 //! cargo run --release --example bench              # every table
-//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load, size, tiles, pyramid, fourier, bc
+//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load, size, tiles, pyramid, stream, fourier, bc
 //! cargo run --release --example bench -- scale     # tiled bakes: ~40 min, ~50 GiB of disk
+//! cargo run --release --example bench -- pyramid-scale   # a 16384² pyramid: ~20 min, ~8 GiB
 //! cargo run --release --example bench -- build-script   # clean builds of a game crate: ~15 min
 //! ```
 //!
-//! `scale` and `build-script` run only when named: their bakes and builds take minutes each.
+//! `scale`, `pyramid-scale` and `build-script` run only when named: their bakes and builds take minutes each.
 //!
 //! Every figure is the best of several runs (machines here are noisy), with its baseline
 //! measured in the same run. Set `RAYON_NUM_THREADS` to change the thread count.
@@ -23,6 +24,7 @@ mod pyramid;
 mod relief;
 mod scale;
 mod size;
+mod stream;
 mod tiles;
 
 use std::time::Instant;
@@ -106,6 +108,9 @@ fn main() {
     if wanted("pyramid") {
         pyramid::run();
     }
+    if wanted("stream") {
+        stream::run();
+    }
     if wanted("tiles") {
         tiles::run();
     }
@@ -117,6 +122,9 @@ fn main() {
     }
     if args.iter().any(|a| a == "scale") {
         scale::run();
+    }
+    if args.iter().any(|a| a == "pyramid-scale") {
+        scale::run_pyramid();
     }
     if args.iter().any(|a| a == "build-script") {
         build_script::run();

@@ -18,10 +18,11 @@ use crate::jobs::{self, Baker, Job, Unit};
 use crate::pipeline::{LoadedPipeline, Pipeline};
 use crate::shard::{Shard, ShardRecord};
 
-/// Most assets one bake may make: a manifest entry of a tile is about 1.2 KB and readers accept
-/// a 16 MiB manifest, so about 13,000 tile assets is where a bundle could no longer be opened.
-/// The split refuses more, before anything is baked.
-pub const MAX_ASSETS: usize = 10_000;
+/// Most assets one bake may make: as many as a reader accepts ([`hikage_bundle::Limits`]'s
+/// default `max_assets`). A map's tiles are written as a tile table (100 bytes a payload), so
+/// the manifest's size no longer bounds them: a 65536² map in 512² tiles with every level
+/// makes 65,535. The split refuses more, before anything is baked.
+pub const MAX_ASSETS: usize = 100_000;
 
 /// Receives progress while a pipeline runs. Implementations must be cheap: `progress` may be
 /// called often and from worker threads.

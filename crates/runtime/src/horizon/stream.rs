@@ -242,40 +242,50 @@ impl TerrainStream {
             layout: layout.clone(),
             filterable,
         };
+        // What a tile holds on the device, from its entries (a heights apron of one texel more
+        // on every side): the coarsest level's tiles and a level-0 tile, the largest, must fit
+        // the budgets before anything is read.
+        let tile_bytes = |key: Key| -> u64 {
+            [Some(&parts.0), Some(&parts.1), parts.2.as_ref()]
+                .into_iter()
+                .flatten()
+                .filter_map(|p| index.tile(p, key.0, (key.1, key.2)))
+                .filter_map(|a| {
+                    let t = a.payload.texture()?;
+                    let apron = if a.settings.heightfield().is_some() { 2 } else { 0 };
+                    hikage_bundle::TextureDesc { width: t.width + apron, height: t.height + apron, ..t.clone() }
+                        .total_bytes()
+                })
+                .sum()
+        };
+        let roots: Vec<Key> = grid_keys(levels.len() as u32 - 1, coarsest.grid).collect();
+        let root_bytes: u64 = roots.iter().map(|&k| tile_bytes(k)).sum();
+        let largest = tile_bytes((0, 0, 0));
+        if root_bytes + largest > options.resident_bytes {
+            return Err(bad(format!(
+                "the coarsest level's {} tiles hold {root_bytes} bytes and a level-0 tile {largest}: above the \
+                 resident budget of {} (bake levels of detail, `levels: Some(16)`, or raise the budget)",
+                roots.len(),
+                options.resident_bytes
+            )));
+        }
+        if largest > options.upload_bytes {
+            return Err(bad(format!(
+                "a level-0 tile holds {largest} bytes, above the upload budget of {} a frame",
+                options.upload_bytes
+            )));
+        }
         // The coarsest level, now: there is always terrain to draw.
         let mut resident = HashMap::new();
         let mut program = None;
-        let roots: Vec<Key> = grid_keys(levels.len() as u32 - 1, coarsest.grid).collect();
-        let mut root_bytes = 0;
         for &key in &roots {
             let assets = load_tile(&index, &parts, key)?;
             let r = upload(device, queue, &binder, key, &assets)?;
-            root_bytes += r.bytes;
             if program.is_none() {
                 let group = (layout.clone(), r.binding.bind_group.clone());
                 program = Some(terrain_program(device, map, group, draw)?);
             }
             resident.insert(key, r);
-        }
-        if root_bytes > options.resident_bytes {
-            return Err(bad(format!(
-                "the coarsest level's tiles hold {root_bytes} bytes, above the resident budget of {}",
-                options.resident_bytes
-            )));
-        }
-        // A level-0 tile is the largest: it must fit one update's uploads and the budget.
-        let largest: u64 = [Some(&parts.0), Some(&parts.1), parts.2.as_ref()]
-            .into_iter()
-            .flatten()
-            .filter_map(|p| index.tile(p, 0, (0, 0)))
-            .filter_map(|a| a.payload.texture().and_then(|t| t.total_bytes()))
-            .sum();
-        if largest > options.upload_bytes || root_bytes + largest > options.resident_bytes {
-            return Err(bad(format!(
-                "a level-0 tile holds {largest} bytes: above the upload budget of {} or, with the coarsest \
-                 level's {root_bytes}, the resident budget of {}",
-                options.upload_bytes, options.resident_bytes
-            )));
         }
         let (sx, sy) = levels[0].texel;
         let (w, h) = levels[0].size;
@@ -372,10 +382,14 @@ impl TerrainStream {
                 self.ready.push_front((key, assets));
                 break;
             }
-            let mut r = upload(device, queue, &self.binder, key, &assets)?;
-            r.last_used = self.frame;
-            uploaded += r.bytes;
-            self.resident.insert(key, r);
+            match upload(device, queue, &self.binder, key, &assets) {
+                Ok(mut r) => {
+                    r.last_used = self.frame;
+                    uploaded += r.bytes;
+                    self.resident.insert(key, r);
+                }
+                Err(e) => failure = failure.or(Some(e)),
+            }
         }
         // 5. The drawn tiles' uniforms.
         for key in &drawn {
@@ -404,8 +418,7 @@ impl TerrainStream {
     /// attachments must match the options the stream was opened with.
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>) {
         self.program.bind(pass);
-        for key in &self.drawn {
-            let r = &self.resident[key];
+        for r in self.drawn.iter().filter_map(|key| self.resident.get(key)) {
             pass.set_bind_group(self.program.group, &r.binding.bind_group, &[]);
             pass.draw(0..r.binding.vertices, 0..1);
         }
