@@ -114,6 +114,7 @@ mod tests {
         assert_eq!(level_size((4097, 4096), 2, EdgeMode::Clamp), Ok((1025, 1024)));
         assert_eq!(level_size((150, 110), 3, EdgeMode::Clamp), Ok((19, 14)));
         assert_eq!(level_size((512, 256), 8, EdgeMode::Wrap), Ok((2, 1)));
-        assert!(level_size((150, 110), 1, EdgeMode::Wrap).unwrap_err().contains("multiples of 2"));
+        assert!(level_size((150, 110), 2, EdgeMode::Wrap).unwrap_err().contains("multiples of 4"));
+        assert_eq!(level_size((150, 110), 1, EdgeMode::Wrap), Ok((75, 55)));
     }
 }
