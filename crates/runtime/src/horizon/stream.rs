@@ -12,6 +12,9 @@ use hikage_bundle::{Asset, PayloadData, TextureData};
 
 use super::horizon_filterable;
 use super::terrain::{TerrainBinding, TerrainExtent, TerrainFrame, terrain_layout, terrain_program};
+use super::tile_plan::{
+    TileKey, TileLayout, TileParts, TilePlan, apron_neighbours, heights_with_apron, tile_device_bytes,
+};
 use crate::draw::DrawOptions;
 use crate::error::RuntimeError;
 use crate::gpu;
@@ -73,22 +76,11 @@ pub struct StreamStats {
     pub finest_drawn: u32,
 }
 
-/// A tile: level of detail, column and row in the level's grid.
-type Key = (u32, u32, u32);
-
 /// What the loader thread sends back: a tile's payloads read and checked, or why not.
 type Loaded = (Key, Result<Vec<CpuAsset>, RuntimeError>);
 
-/// One level of the map: its grid of tiles and where its tiles lie.
-#[derive(Clone, Copy, Debug)]
-struct Level {
-    /// Tiles along `u` and `v`.
-    grid: (u32, u32),
-    /// The level's size in nodes.
-    size: (u32, u32),
-    /// World units per node.
-    texel: (f32, f32),
-}
+/// A tile's key.
+type Key = TileKey;
 
 /// A tile on the device.
 #[derive(Debug)]
@@ -146,10 +138,8 @@ struct Resident {
 pub struct TerrainStream {
     program: gpu::Program,
     options: StreamOptions,
-    /// Part ids (heights, horizons and, when baked, occlusion), levels, layout.
+    /// The map's parts and levels, and how a tile is bound.
     binder: Binder,
-    /// Level-0 tile size in nodes (every level's tiles hold as many, plus one).
-    tile: u32,
     resident: HashMap<Key, Resident>,
     requests: mpsc::Sender<Key>,
     results: mpsc::Receiver<Loaded>,
@@ -174,26 +164,14 @@ impl TerrainStream {
         options: StreamOptions,
     ) -> Result<TerrainStream, RuntimeError> {
         let index = TileIndex::open(dir)?;
-        let set = index.sets().find(|s| s.map == map).ok_or_else(|| RuntimeError::Asset {
-            asset: map.to_string(),
-            message: format!(
-                "no map baked in tiles of that name; the bundle has: {}",
-                index.sets().map(|s| s.map.as_str()).collect::<Vec<_>>().join(", ")
-            ),
-        })?;
-        let part =
-            |kind: &str| set.parts.iter().any(|p| p.id == format!("{map}.{kind}")).then(|| format!("{map}.{kind}"));
         let bad = |message: String| RuntimeError::Asset { asset: map.to_string(), message };
-        let (Some(height), Some(horizon)) = (part("height"), part("horizon")) else {
-            return Err(bad("expected the tiles of a Horizon job: `<map>.height` and `<map>.horizon`".into()));
-        };
-        let parts = (height, horizon, part("ao"));
-        // Each level's grid and geometry from its first tile.
-        let mut levels = Vec::new();
-        let mut tile = 0;
-        while let Some(first) = index.tile(&parts.1, levels.len() as u32, (0, 0)) {
-            let settings = first.settings.horizon().ok_or_else(|| bad(format!("`{}` is not a horizon", first.id)))?;
-            let place = settings.tile.clone().ok_or_else(|| bad(format!("`{}` has no tile placement", first.id)))?;
+        if !index.sets().any(|s| s.map == map) {
+            let maps: Vec<&str> = index.sets().map(|s| s.map.as_str()).collect();
+            return Err(bad(format!("no map baked in tiles of that name; the bundle has: {}", maps.join(", "))));
+        }
+        let layout = TileLayout::new(map, |part, level, at| index.tile(part, level, at))?;
+        for level in 0..layout.levels.len() as u32 {
+            let first = index.tile(&layout.parts.horizon, level, (0, 0)).expect("the layout found it");
             let (w, h) = first.payload.texture().map_or((0, 0), |t| (t.width, t.height));
             if w.max(h) > MAX_TILE_SIDE {
                 return Err(bad(format!(
@@ -201,29 +179,17 @@ impl TerrainStream {
                     MAX_TILE_SIDE - 1
                 )));
             }
-            if levels.is_empty() {
-                tile = w.max(h).saturating_sub(1).max(1);
-            }
-            let count = |n: u32| n.saturating_sub(1).div_ceil(tile).max(1);
-            levels.push(Level {
-                grid: (count(place.map_size.0), count(place.map_size.1)),
-                size: place.map_size,
-                texel: settings.texel_size,
-            });
         }
-        let Some(coarsest) = levels.last().copied() else {
-            return Err(bad("no level-0 tile `(0, 0)`".into()));
-        };
-        let first = index.tile(&parts.1, 0, (0, 0)).expect("found above");
+        let first = index.tile(&layout.parts.horizon, 0, (0, 0)).expect("the layout found it");
         let format = first.payload.texture().map(|t| t.format).expect("a texture");
         let filterable = horizon_filterable(device, format);
-        let layout = terrain_layout(device, filterable);
+        let group_layout = terrain_layout(device, filterable);
 
         // The loader thread: a clone of the index, one tile's payloads per request.
         let (requests, to_load) = mpsc::channel::<Key>();
         let (loaded, results) = mpsc::channel::<Loaded>();
         let loader = index.clone();
-        let loader_parts = parts.clone();
+        let loader_parts = layout.parts.clone();
         std::thread::Builder::new()
             .name(format!("hikage terrain {map}"))
             .spawn(move || {
@@ -235,30 +201,15 @@ impl TerrainStream {
             })
             .map_err(|e| bad(format!("could not start the loader thread: {e}")))?;
 
-        let binder = Binder {
-            parts: parts.clone(),
-            levels: levels.clone(),
-            skirt_texels: options.skirt_texels,
-            layout: layout.clone(),
-            filterable,
-        };
-        // What a tile holds on the device, from its entries (a heights apron of one texel more
-        // on every side): the coarsest level's tiles and a level-0 tile, the largest, must fit
-        // the budgets before anything is read.
+        let binder = Binder { tiles: layout, skirt_texels: options.skirt_texels, layout: group_layout, filterable };
+        // What a tile holds on the device: the coarsest level's tiles and a level-0 tile, the
+        // largest, must fit the budgets before anything is read.
+        let tiles = &binder.tiles;
         let tile_bytes = |key: Key| -> u64 {
-            [Some(&parts.0), Some(&parts.1), parts.2.as_ref()]
-                .into_iter()
-                .flatten()
-                .filter_map(|p| index.tile(p, key.0, (key.1, key.2)))
-                .filter_map(|a| {
-                    let t = a.payload.texture()?;
-                    let apron = if a.settings.heightfield().is_some() { 2 } else { 0 };
-                    hikage_bundle::TextureDesc { width: t.width + apron, height: t.height + apron, ..t.clone() }
-                        .total_bytes()
-                })
-                .sum()
+            let entries: Vec<Asset> = tiles.parts.all().filter_map(|p| index.tile(p, key.0, (key.1, key.2))).collect();
+            tile_device_bytes(&entries)
         };
-        let roots: Vec<Key> = grid_keys(levels.len() as u32 - 1, coarsest.grid).collect();
+        let roots: Vec<Key> = tiles.roots().collect();
         let root_bytes: u64 = roots.iter().map(|&k| tile_bytes(k)).sum();
         let largest = tile_bytes((0, 0, 0));
         if root_bytes + largest > options.resident_bytes {
@@ -279,31 +230,23 @@ impl TerrainStream {
         let mut resident = HashMap::new();
         let mut program = None;
         for &key in &roots {
-            let assets = load_tile(&index, &parts, key)?;
+            let assets = load_tile(&index, &binder.tiles.parts, key)?;
             let r = upload(device, queue, &binder, key, &assets)?;
             if program.is_none() {
-                let group = (layout.clone(), r.binding.bind_group.clone());
+                let group = (binder.layout.clone(), r.binding.bind_group.clone());
                 program = Some(terrain_program(device, map, group, draw)?);
             }
             resident.insert(key, r);
         }
-        let (sx, sy) = levels[0].texel;
-        let (w, h) = levels[0].size;
-        let (low, high) = resident.values().fold((f32::MAX, f32::MIN), |(lo, hi), r| {
+        let heights = resident.values().fold((f32::MAX, f32::MIN), |(lo, hi), r| {
             (lo.min(r.binding.extent.height_range.0), hi.max(r.binding.extent.height_range.1))
         });
-        let extent = TerrainExtent {
-            size: (w, h),
-            texel_size: (sx, sy),
-            height_range: (low, high),
-            min: Vec3::new(0.5 * sx, low, 0.5 * sy),
-            max: Vec3::new((w as f32 - 0.5) * sx, high, (h as f32 - 0.5) * sy),
-        };
+        let level0 = &binder.tiles.levels[0];
+        let extent = TerrainExtent::new(level0.size, level0.texel, heights);
         Ok(TerrainStream {
             program: program.expect("at least one coarsest tile"),
             options,
             binder,
-            tile,
             resident,
             requests,
             results,
@@ -336,19 +279,8 @@ impl TerrainStream {
         self.frame += 1;
         let cam = frame.model.inverse().transform_point3(eye);
         // 1. What to draw, and what is wanted (in the order it is wanted).
-        let mut wanted = Vec::new();
-        let mut drawn = Vec::new();
-        let top = self.binder.levels.len() as u32 - 1;
-        for key in grid_keys(top, self.binder.levels[top as usize].grid) {
-            self.visit(key, (cam.x, cam.z), &mut wanted, &mut drawn);
-        }
-        // Most wanted first: the nearest in tile widths (the tile under the camera at 0), then
-        // the coarser.
-        let mut ranked: Vec<(f32, Key)> = wanted.iter().map(|&k| (self.remoteness(k, (cam.x, cam.z)), k)).collect();
-        ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then(b.1.0.cmp(&a.1.0)).then(a.1.cmp(&b.1)));
-        let wanted: Vec<Key> = ranked.iter().map(|&(_, k)| k).collect();
-        let rank: HashMap<Key, usize> = wanted.iter().enumerate().map(|(i, &k)| (k, i)).collect();
-        let missing = wanted.iter().filter(|k| !self.resident.contains_key(k)).count();
+        let plan = self.binder.tiles.plan((cam.x, cam.z), &self.options, |k| self.resident.contains_key(&k));
+        let missing = plan.wanted.iter().filter(|k| !self.resident.contains_key(k)).count();
         // 2. What the loader finished.
         let mut failure = None;
         while let Ok((key, result)) = self.results.try_recv() {
@@ -358,11 +290,10 @@ impl TerrainStream {
                 Err(e) => failure = failure.or(Some(e)),
             }
         }
-        let wanted_set: HashSet<Key> = wanted.iter().copied().collect();
-        self.ready.retain(|(key, _)| wanted_set.contains(key) && !self.resident.contains_key(key));
-        self.ready.make_contiguous().sort_by_key(|(key, _)| rank.get(key).copied().unwrap_or(usize::MAX));
+        self.ready.retain(|(key, _)| plan.rank(*key).is_some() && !self.resident.contains_key(key));
+        self.ready.make_contiguous().sort_by_key(|(key, _)| plan.rank(*key));
         // 3. Requests, coarser and nearer first (the order of `wanted`).
-        for &key in &wanted {
+        for &key in &plan.wanted {
             if self.pending.len() >= MAX_PENDING {
                 break;
             }
@@ -373,12 +304,10 @@ impl TerrainStream {
         }
         // 4. Uploads within the frame's budget, making room by evicting.
         let mut uploaded = 0u64;
-        // Tiles drawn now stay; a wanted tile goes only for a more wanted one.
-        let drawn_set: HashSet<Key> = drawn.iter().copied().collect();
         while let Some((key, assets)) = self.ready.pop_front() {
             let bytes: u64 = assets.iter().filter_map(|a| a.texture()).map(|t| t.desc.total_bytes().unwrap_or(0)).sum();
             let fits = uploaded + bytes <= self.options.upload_bytes;
-            if !fits || !self.make_room(bytes, rank.get(&key).copied().unwrap_or(usize::MAX), &rank, &drawn_set) {
+            if !fits || !self.make_room(bytes, key, &plan) {
                 self.ready.push_front((key, assets));
                 break;
             }
@@ -392,7 +321,7 @@ impl TerrainStream {
             }
         }
         // 5. The drawn tiles' uniforms.
-        for key in &drawn {
+        for key in &plan.drawn {
             let r = self.resident.get_mut(key).expect("drawn tiles are resident");
             r.last_used = self.frame;
             let model = frame.model * Mat4::from_translation(Vec3::new(r.offset.0, 0.0, r.offset.1));
@@ -403,11 +332,11 @@ impl TerrainStream {
             resident_tiles: self.resident.len(),
             resident_bytes: self.resident.values().map(|r| r.bytes).sum(),
             uploaded_bytes: uploaded,
-            drawn: drawn.len(),
+            drawn: plan.drawn.len(),
             missing,
-            finest_drawn: drawn.iter().map(|k| k.0).min().unwrap_or(top),
+            finest_drawn: plan.drawn.iter().map(|k| k.0).min().unwrap_or(self.binder.tiles.coarsest()),
         };
-        self.drawn = drawn;
+        self.drawn = plan.drawn;
         match failure {
             Some(e) => Err(e),
             None => Ok(stats),
@@ -427,7 +356,7 @@ impl TerrainStream {
     /// The tiles the next [`draw`](TerrainStream::draw) draws: level, column and row, and where
     /// each lies in the map frame (its first and last node, world units along `u` and `v`).
     pub fn drawn(&self) -> impl Iterator<Item = ((u32, u32, u32), [(f32, f32); 2])> + '_ {
-        self.drawn.iter().map(|&key| (key, self.rect(key)))
+        self.drawn.iter().map(|&key| (key, self.binder.tiles.rect(key)))
     }
 
     /// The WGSL of the terrain (bindings at the chosen group), as [`super::TerrainShadows::wgsl`].
@@ -435,76 +364,15 @@ impl TerrainStream {
         &self.program.wgsl
     }
 
-    /// Tile `key`'s first and last node in the map frame (world units along `u`, `v`).
-    fn rect(&self, (level, x, y): Key) -> [(f32, f32); 2] {
-        let l = &self.binder.levels[level as usize];
-        let s = (1u32 << level) as f32;
-        let (sx, sy) = self.binder.levels[0].texel;
-        let node = |i: u32, n: u32, t: f32| (i.min(n - 1) as f32 * s + 0.5) * t;
-        let (x0, y0) = (x * self.tile, y * self.tile);
-        [
-            (node(x0, l.size.0, sx), node(y0, l.size.1, sy)),
-            (node(x0 + self.tile, l.size.0, sx), node(y0 + self.tile, l.size.1, sy)),
-        ]
-    }
-
-    /// Adds `key` and, while it is near enough to split, its finer tiles to `wanted`; adds the
-    /// tiles that cover its area and are on the device to `drawn`.
-    fn visit(&self, key: Key, cam: (f32, f32), wanted: &mut Vec<Key>, drawn: &mut Vec<Key>) {
-        wanted.push(key);
-        let (level, x, y) = key;
-        if level > self.options.finest_level && self.remoteness(key, cam) < self.options.detail {
-            let finer = &self.binder.levels[level as usize - 1];
-            let children: Vec<Key> = [(0, 0), (1, 0), (0, 1), (1, 1)]
-                .into_iter()
-                .map(|(i, j)| (level - 1, 2 * x + i, 2 * y + j))
-                .filter(|&(_, cx, cy)| cx < finer.grid.0 && cy < finer.grid.1)
-                .collect();
-            if children.iter().all(|c| self.resident.contains_key(c)) {
-                for c in children {
-                    self.visit(c, cam, wanted, drawn);
-                }
-                return;
-            }
-            wanted.extend(children);
-        }
-        if self.resident.contains_key(&key) {
-            drawn.push(key);
-        }
-    }
-
-    /// How far tile `key` is from the camera at `cam` (map frame, horizontal), in widths of the
-    /// tile: 0 under the camera.
-    fn remoteness(&self, key: Key, cam: (f32, f32)) -> f32 {
-        let [lo, hi] = self.rect(key);
-        let dx = (lo.0 - cam.0).max(cam.0 - hi.0).max(0.0);
-        let dy = (lo.1 - cam.1).max(cam.1 - hi.1).max(0.0);
-        dx.hypot(dy) / (hi.0 - lo.0).max(hi.1 - lo.1).max(f32::MIN_POSITIVE)
-    }
-
-    /// Evicts tiles until `bytes` more fit the resident budget, for a tile of rank `wanted_rank`
-    /// in `rank` (the tiles wanted now, most wanted first): first those no longer wanted, least
-    /// recently drawn first, then wanted ones less wanted than it, least wanted first; never a
-    /// tile in `drawn` nor one of the coarsest level. False when the bytes cannot be found.
-    fn make_room(&mut self, bytes: u64, wanted_rank: usize, rank: &HashMap<Key, usize>, drawn: &HashSet<Key>) -> bool {
-        let top = self.binder.levels.len() as u32 - 1;
+    /// Evicts tiles until `bytes` more fit the resident budget for `incoming`, in the order
+    /// [`TilePlan::victim`] gives. False when the bytes cannot be found.
+    fn make_room(&mut self, bytes: u64, incoming: Key, plan: &TilePlan) -> bool {
         loop {
             let resident: u64 = self.resident.values().map(|r| r.bytes).sum();
             if resident + bytes <= self.options.resident_bytes {
                 return true;
             }
-            // (wanted, how little, how long unused): the smallest goes first.
-            let victim = self
-                .resident
-                .iter()
-                .filter(|(k, _)| k.0 != top && !drawn.contains(k))
-                .filter(|(k, _)| rank.get(k).is_none_or(|&r| r > wanted_rank))
-                .min_by_key(|(k, r)| match rank.get(k) {
-                    None => (0, 0, r.last_used, **k),
-                    Some(&at) => (1, usize::MAX - at, r.last_used, **k),
-                })
-                .map(|(k, _)| *k);
-            match victim {
+            match plan.victim(incoming, self.resident.iter().map(|(k, r)| (*k, r.last_used))) {
                 Some(k) => {
                     self.resident.remove(&k);
                 }
@@ -514,18 +382,10 @@ impl TerrainStream {
     }
 }
 
-/// The keys of every tile of a level's `grid`.
-fn grid_keys(level: u32, grid: (u32, u32)) -> impl Iterator<Item = Key> {
-    (0..grid.1).flat_map(move |y| (0..grid.0).map(move |x| (level, x, y)))
-}
-
 /// Reads and checks tile `key`'s payloads: heights (with an apron from the neighbouring tiles'
 /// heights), horizons and, when baked, occlusion.
-fn load_tile(
-    index: &TileIndex,
-    (height, horizon, ao): &(String, String, Option<String>),
-    (level, x, y): Key,
-) -> Result<Vec<CpuAsset>, RuntimeError> {
+fn load_tile(index: &TileIndex, parts: &TileParts, key: Key) -> Result<Vec<CpuAsset>, RuntimeError> {
+    let (level, x, y) = key;
     let read = |part: &str, (x, y): (u32, u32)| -> Result<Option<(Asset, TextureData)>, RuntimeError> {
         match index.tile(part, level, (x, y)) {
             Some(asset) => Ok(Some((asset.clone(), index.read_texture(&asset)?))),
@@ -533,70 +393,32 @@ fn load_tile(
         }
     };
     let mut out = Vec::new();
-    for part in [Some(height), Some(horizon), ao.as_ref()].into_iter().flatten() {
+    for part in parts.all() {
         let (asset, mut texture) = read(part, (x, y))?.ok_or_else(|| RuntimeError::Asset {
             asset: format!("{part}{}", hikage_bundle::tiles::tile_suffix(level, (x, y))),
             message: "the tile table has no such tile".into(),
         })?;
-        if part == height {
+        if part == parts.height {
             // The neighbours' heights next to the edges, for the edge texels' normals.
-            let neighbour = |dx: i64, dy: i64| -> Result<Option<TextureData>, RuntimeError> {
-                let (nx, ny) = (x as i64 + dx, y as i64 + dy);
-                if nx < 0 || ny < 0 {
-                    return Ok(None);
+            let mut sides = [None, None, None, None];
+            for (side, n) in sides.iter_mut().zip(apron_neighbours(key)) {
+                if let Some((_, nx, ny)) = n {
+                    *side = read(part, (nx, ny))?.map(|(_, t)| t);
                 }
-                Ok(read(part, (nx as u32, ny as u32))?.map(|(_, t)| t))
-            };
-            let sides = [neighbour(-1, 0)?, neighbour(1, 0)?, neighbour(0, -1)?, neighbour(0, 1)?];
-            texture = with_apron(&texture, &sides);
+            }
+            texture = heights_with_apron(&texture, &sides);
         }
         out.push(CpuAsset { asset, payload: PayloadData::Texture(texture) });
     }
     Ok(out)
 }
 
-/// `heights` with one more texel on every side: next to each edge the texel beside the shared
-/// edge in the neighbouring tile (`[left, right, above, below]`), or the edge texel itself at
-/// the map's edge (as the one-mesh terrain clamps).
-fn with_apron(heights: &TextureData, [left, right, above, below]: &[Option<TextureData>; 4]) -> TextureData {
-    let (w, h) = (heights.desc.width as usize, heights.desc.height as usize);
-    let tb = heights.desc.format.texel_bytes();
-    let src = &heights.levels[0];
-    let (aw, ah) = (w + 2, h + 2);
-    let mut out = vec![0u8; aw * ah * tb];
-    let texel = |t: &TextureData, x: usize, y: usize| -> Vec<u8> {
-        let tw = t.desc.width as usize;
-        t.levels[0][(y * tw + x) * tb..][..tb].to_vec()
-    };
-    let put = |out: &mut Vec<u8>, x: usize, y: usize, v: &[u8]| out[(y * aw + x) * tb..][..tb].copy_from_slice(v);
-    for y in 0..h {
-        out[((y + 1) * aw + 1) * tb..][..w * tb].copy_from_slice(&src[y * w * tb..][..w * tb]);
-        // A neighbour of another size (none here: a row of tiles shares its rows) is ignored.
-        let l = left.as_ref().filter(|t| t.desc.height as usize == h && t.desc.width >= 2);
-        let r = right.as_ref().filter(|t| t.desc.height as usize == h && t.desc.width >= 2);
-        put(&mut out, 0, y + 1, &l.map_or_else(|| texel(heights, 0, y), |t| texel(t, t.desc.width as usize - 2, y)));
-        put(&mut out, w + 1, y + 1, &r.map_or_else(|| texel(heights, w - 1, y), |t| texel(t, 1, y)));
-    }
-    for x in 0..w {
-        let a = above.as_ref().filter(|t| t.desc.width as usize == w && t.desc.height >= 2);
-        let b = below.as_ref().filter(|t| t.desc.width as usize == w && t.desc.height >= 2);
-        put(&mut out, x + 1, 0, &a.map_or_else(|| texel(heights, x, 0), |t| texel(t, x, t.desc.height as usize - 2)));
-        put(&mut out, x + 1, h + 1, &b.map_or_else(|| texel(heights, x, h - 1), |t| texel(t, x, 1)));
-    }
-    for (cx, cy, sx, sy) in [(0, 0, 0, 0), (w + 1, 0, w - 1, 0), (0, h + 1, 0, h - 1), (w + 1, h + 1, w - 1, h - 1)] {
-        put(&mut out, cx, cy, &texel(heights, sx, sy));
-    }
-    let desc = hikage_bundle::TextureDesc { width: aw as u32, height: ah as u32, levels: 1, ..heights.desc.clone() };
-    TextureData { desc, levels: vec![out] }
-}
-
 /// What every tile of a stream is bound with: the parts it reads, the levels' geometry, the
 /// skirt, and the bind group layout.
 #[derive(Debug)]
 struct Binder {
-    /// Part ids: heights, horizons and, when baked, occlusion.
-    parts: (String, String, Option<String>),
-    levels: Vec<Level>,
+    /// The map's parts and levels.
+    tiles: TileLayout,
     skirt_texels: f32,
     layout: wgpu::BindGroupLayout,
     filterable: bool,
@@ -610,8 +432,9 @@ fn upload(
     key: Key,
     assets: &[CpuAsset],
 ) -> Result<Resident, RuntimeError> {
-    let (_, horizon, ao) = &binder.parts;
-    let (levels, skirt_texels, layout) = (&binder.levels, binder.skirt_texels, (&binder.layout, binder.filterable));
+    let (horizon, ao) = (&binder.tiles.parts.horizon, &binder.tiles.parts.ao);
+    let (levels, skirt_texels, layout) =
+        (&binder.tiles.levels, binder.skirt_texels, (&binder.layout, binder.filterable));
     let mut textures = GpuBundle::default();
     for a in assets {
         textures.insert(device, queue, a)?;
@@ -629,17 +452,6 @@ fn upload(
         layout,
     )?;
     let bytes = textures.textures.values().map(|t| t.desc.total_bytes().unwrap_or(0)).sum();
-    // Level k's node i lies on level 0's texel i·2^k: the tile frame, whose node a is at
-    // (a + ½)·texel_k, moves by (origin·2^k + ½ − 2^(k−1))·texel_0.
-    let place = assets[0].asset.settings.tile().cloned().unwrap_or_else(|| hikage_bundle::TilePlacement {
-        map: String::new(),
-        index: (key.1, key.2),
-        origin: (0, 0),
-        map_size: level.size,
-        level: key.0,
-    });
-    let s = (1u32 << key.0) as f32;
-    let (sx, sy) = levels[0].texel;
-    let offset = ((place.origin.0 as f32 * s + 0.5 - 0.5 * s) * sx, (place.origin.1 as f32 * s + 0.5 - 0.5 * s) * sy);
+    let offset = binder.tiles.offset(key);
     Ok(Resident { binding, _textures: textures, bytes, last_used: 0, offset })
 }

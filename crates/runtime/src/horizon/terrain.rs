@@ -168,6 +168,21 @@ pub struct TerrainExtent {
 }
 
 impl TerrainExtent {
+    /// The extent of a map of `size` texels of `texel_size` world units whose heights span
+    /// `height_range`.
+    pub fn new(size: (u32, u32), texel_size: (f32, f32), height_range: (f32, f32)) -> TerrainExtent {
+        let (w, h) = size;
+        let (sx, sy) = texel_size;
+        let (low, high) = height_range;
+        TerrainExtent {
+            size,
+            texel_size,
+            height_range,
+            min: Vec3::new(0.5 * sx, low, 0.5 * sy),
+            max: Vec3::new((w as f32 - 0.5) * sx, high, (h as f32 - 0.5) * sy),
+        }
+    }
+
     /// The centre of the terrain's box, terrain frame.
     pub fn centre(&self) -> Vec3 {
         0.5 * (self.min + self.max)
@@ -359,14 +374,7 @@ impl TerrainBinding {
         let (lo, hi) = heights.range.unwrap_or((0.0, 0.0));
         let world = |v: f32| hf.height_offset + hf.height_scale * v;
         let (low, high) = (world(lo).min(world(hi)), world(lo).max(world(hi)));
-        let (sx, sy) = settings.texel_size;
-        let extent = TerrainExtent {
-            size: (w, h),
-            texel_size: (sx, sy),
-            height_range: (low, high),
-            min: Vec3::new(0.5 * sx, low, 0.5 * sy),
-            max: Vec3::new((w as f32 - 0.5) * sx, high, (h as f32 - 0.5) * sy),
-        };
+        let extent = TerrainExtent::new((w, h), settings.texel_size, (low, high));
         let mut assets = vec![horizon.to_string(), settings.heightfield.clone()];
         assets.extend(ao.map(|a| a.asset.id.clone()));
         Ok(TerrainBinding { uniform, statics, bind_group, vertices, extent, assets })
