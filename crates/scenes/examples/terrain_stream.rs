@@ -58,10 +58,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         albedo: Vec3::new(0.45, 0.4, 0.32),
         ..TerrainFrame::default()
     };
+    // Until every wanted tile is drawn, or the resident budget holds no more (2 s without an
+    // upload).
     let mut stats = terrain.update(&g.device, &g.queue, &frame, eye)?;
-    while stats.missing > 0 {
+    let mut idle = 0;
+    while stats.missing > 0 && idle < 200 {
         std::thread::sleep(std::time::Duration::from_millis(10));
         stats = terrain.update(&g.device, &g.queue, &frame, eye)?;
+        idle = if stats.uploaded_bytes > 0 { 0 } else { idle + 1 };
     }
     let f = g.render((w, h), wgpu::Color { r: 0.55, g: 0.65, b: 0.8, a: 1.0 }, |pass| terrain.draw(pass));
     let covered: Vec<&[f32; 4]> = f.visibility.iter().filter(|v| v[1] > 0.5).collect();

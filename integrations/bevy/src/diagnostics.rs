@@ -42,11 +42,13 @@ pub(crate) enum Check {
     Mesh,
     /// The directional light whose shadow factor the material sets.
     Sun,
+    /// A streamed terrain's tiles (one that failed to read or is missing).
+    Tiles,
 }
 
 /// Every check's finding on one entity (required by each hikage component).
 #[derive(Component, Default, Debug)]
-pub(crate) struct Problems([Option<String>; 4]);
+pub(crate) struct Problems([Option<String>; 5]);
 
 impl Problems {
     /// Sets `check`'s finding, marking the component changed only when it differs.

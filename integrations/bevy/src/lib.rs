@@ -7,6 +7,8 @@
 //! draws each method with a `StandardMaterial` extension built when the bundle has loaded:
 //!
 //! - [`HorizonTerrain`]: a heightfield with baked horizon shadows and ambient occlusion;
+//! - [`StreamedTerrain`]: a terrain of any size baked in tiles and levels of detail, streamed
+//!   around the camera;
 //! - [`ReliefSurface`]: relief mapping with self-shadowing on any mesh with tangents;
 //! - [`CurvedSurface`]: a bump map's horizon shadows corrected for a mesh's curvature;
 //! - [`HairStrands`]: hair strips blended over the scene with deep opacity maps from the sun,
@@ -48,6 +50,7 @@ pub mod light_fit;
 mod loader;
 pub mod relief;
 mod shaders;
+pub mod stream;
 pub mod terrain;
 
 use bevy_app::{App, Plugin, PostUpdate, Update};
@@ -64,9 +67,11 @@ pub use diagnostics::HikageError;
 pub use grid::GRID_LABEL;
 pub use hair::{HairDraw, HairReceiver, HairReceiverMaterial, HairShadowMaps, HairStrands, HairStyle};
 pub use hikage_bundle::{Asset as ManifestAsset, Manifest, Settings};
+pub use hikage_runtime::horizon::{StreamOptions, StreamStats};
 pub use light_fit::FittedShadows;
 pub use loader::{BundleLoadError, BundleLoader};
 pub use relief::{ReliefExtension, ReliefMaterial, ReliefSurface};
+pub use stream::{StreamedTerrain, TerrainStreamStats, TerrainTile};
 pub use terrain::{HorizonTerrain, TerrainExtension, TerrainMaterial};
 
 /// The whole integration: [`HikageAssetsPlugin`], the materials and the systems that build
@@ -92,6 +97,8 @@ impl Plugin for HikagePlugin {
                 (diagnostics::check_load::<ReliefSurface>, diagnostics::check_sun::<ReliefSurface>),
                 (diagnostics::check_load::<CurvedSurface>, diagnostics::check_sun::<CurvedSurface>),
                 (diagnostics::check_load::<HairStrands>, relief::check_mesh),
+                (stream::stream_terrain, diagnostics::check_load::<StreamedTerrain>),
+                diagnostics::check_sun::<StreamedTerrain>,
             ),
         );
         app.add_systems(PostUpdate, diagnostics::publish);
@@ -112,7 +119,7 @@ pub struct HikageAssetsPlugin;
 
 /// The registered loader, kept to tell it the render device once the device exists.
 #[derive(bevy_ecs::prelude::Resource)]
-struct RegisteredLoader(BundleLoader);
+pub(crate) struct RegisteredLoader(BundleLoader);
 
 impl Plugin for HikageAssetsPlugin {
     fn build(&self, app: &mut App) {
@@ -183,6 +190,12 @@ impl HikageBundle {
         let asset = self.asset(id).ok_or_else(|| format!("no asset `{id}` in the bundle"))?;
         if asset.kind != kind {
             return Err(format!("asset `{id}` is a {:?}, expected a {kind:?}", asset.kind));
+        }
+        if let Some(tile) = asset.settings.tile() {
+            return Err(format!(
+                "asset `{id}` is a tile of map `{}`, which is streamed: draw it with `StreamedTerrain`",
+                tile.map
+            ));
         }
         self.image(id).cloned().ok_or_else(|| format!("asset `{id}` has no image"))
     }

@@ -34,7 +34,7 @@ impl BundleLoader {
         let _ = self.features.set(features);
     }
 
-    fn device_features(&self) -> hikage_runtime::wgpu::Features {
+    pub(crate) fn device_features(&self) -> hikage_runtime::wgpu::Features {
         self.features.get().copied().unwrap_or_else(hikage_runtime::wgpu::Features::empty)
     }
 }
@@ -123,31 +123,17 @@ impl AssetLoader for BundleLoader {
             grid_ids: Vec::new(),
             strands: Vec::new(),
         };
-        for asset in &manifest.assets {
+        // The tiles of a map baked in tiles are streamed (`StreamedTerrain`), not loaded with the
+        // bundle: a large map's tiles would not fit in memory.
+        for asset in manifest.assets.iter().filter(|a| a.settings.tile().is_none()) {
             let bad = |message: String| BundleLoadError::Asset { path: path.clone(), asset: asset.id.clone(), message };
             let payload_path = context.path().path().with_file_name(&asset.file);
             let bytes = context.read_asset_bytes(payload_path).await.map_err(|e| bad(e.to_string()))?;
             check(asset, &bytes, &limits).map_err(&bad)?;
             match &asset.payload {
-                Payload::Texture(desc) => {
-                    let decoded;
-                    let (ktx2, formats) = if !desc.format.is_block_compressed() {
-                        (&bytes, CompressedImageFormats::NONE)
-                    } else if hikage_runtime::device_format(self.device_features(), desc) == desc.format {
-                        (&bytes, CompressedImageFormats::BC)
-                    } else {
-                        decoded = decode_blocks(&bytes, &asset.file, &limits).map_err(&bad)?;
-                        (&decoded, CompressedImageFormats::NONE)
-                    };
-                    let image = Image::from_buffer(
-                        ktx2,
-                        ImageType::Extension("ktx2"),
-                        formats,
-                        false,
-                        sampler(&asset.settings),
-                        RenderAssetUsages::default(),
-                    )
-                    .map_err(|e| bad(format!("Bevy's KTX2 reader: {e}")))?;
+                Payload::Texture(_) => {
+                    let image = texture_image(asset, &bytes, self.device_features(), RenderAssetUsages::default())
+                        .map_err(&bad)?;
                     if let Settings::Heightfield(settings) = &asset.settings {
                         let heights = hikage_bundle::ktx2_file::decode(&bytes, Path::new(&asset.file), &limits)
                             .map_err(|e| bad(e.to_string()))?;
@@ -177,6 +163,30 @@ impl AssetLoader for BundleLoader {
     fn extensions(&self) -> &[&str] {
         &["ron"]
     }
+}
+
+/// The image of texture asset `asset` from its checked payload `bytes`: BC4/BC5 blocks kept on a
+/// device with `features` that samples them and decoded otherwise, sampled as the asset wants.
+pub(crate) fn texture_image(
+    asset: &ManifestAsset,
+    bytes: &[u8],
+    features: hikage_runtime::wgpu::Features,
+    usage: RenderAssetUsages,
+) -> Result<Image, String> {
+    let Payload::Texture(desc) = &asset.payload else {
+        return Err("not a texture".into());
+    };
+    let decoded;
+    let (ktx2, formats) = if !desc.format.is_block_compressed() {
+        (bytes, CompressedImageFormats::NONE)
+    } else if hikage_runtime::device_format(features, desc) == desc.format {
+        (bytes, CompressedImageFormats::BC)
+    } else {
+        decoded = decode_blocks(bytes, &asset.file, &Limits::default())?;
+        (decoded.as_slice(), CompressedImageFormats::NONE)
+    };
+    Image::from_buffer(ktx2, ImageType::Extension("ktx2"), formats, false, sampler(&asset.settings), usage)
+        .map_err(|e| format!("Bevy's KTX2 reader: {e}"))
 }
 
 /// A BC4/BC5 texture's KTX2 file as the `R8Unorm`/`Rg8Unorm` KTX2 file it decodes to, for
@@ -214,7 +224,7 @@ fn sampler(settings: &Settings) -> ImageSampler {
 
 /// The payload's length and BLAKE3 against the manifest, then a texture's contents as every
 /// reader checks them (a mesh's are checked once inflated, [`decoded_mesh`]).
-fn check(asset: &ManifestAsset, bytes: &[u8], limits: &Limits) -> Result<(), String> {
+pub(crate) fn check(asset: &ManifestAsset, bytes: &[u8], limits: &Limits) -> Result<(), String> {
     if bytes.len() as u64 != asset.byte_length {
         return Err(format!("payload is {} bytes, the manifest says {}", bytes.len(), asset.byte_length));
     }

@@ -112,6 +112,26 @@ pub struct TerrainUniform {
     pub _pad: u32,
 }
 
+impl TerrainUniform {
+    /// The uniform of a horizon map stored as `encoding` with texels of `texel_size`, with the
+    /// horizon test on, reading an AO map when `has_ao`.
+    pub fn new(
+        encoding: &hikage_runtime::horizon::HorizonEncoding,
+        texel_size: (f32, f32),
+        has_ao: bool,
+    ) -> TerrainUniform {
+        TerrainUniform {
+            format: encoding.format,
+            distance_scale: encoding.distance_scale,
+            open_sky_slope: encoding.open_sky_slope,
+            has_ao: u32::from(has_ao),
+            texel_size: Vec2::new(texel_size.0, texel_size.1),
+            horizon: 1,
+            _pad: 0,
+        }
+    }
+}
+
 impl MaterialExtension for TerrainExtension {
     fn fragment_shader() -> ShaderRef {
         crate::shaders::TERRAIN.into()
@@ -138,15 +158,7 @@ impl FromBundle for HorizonTerrain {
             None => None,
             Some(id) => Some(ambient_occlusion(bundle, id, &self.horizon, &settings.heightfield)?),
         };
-        let uniform = TerrainUniform {
-            format: encoding.format,
-            distance_scale: encoding.distance_scale,
-            open_sky_slope: encoding.open_sky_slope,
-            has_ao: u32::from(ao.is_some()),
-            texel_size: Vec2::new(settings.texel_size.0, settings.texel_size.1),
-            horizon: 1,
-            _pad: 0,
-        };
+        let uniform = TerrainUniform::new(&encoding, settings.texel_size, ao.is_some());
         let extension = TerrainExtension { uniform, horizon, ao };
         Ok((ExtendedMaterial { base: self.base.clone(), extension }, Some(grid)))
     }

@@ -140,6 +140,8 @@ pub struct TerrainStream {
     options: StreamOptions,
     /// The map's parts and levels, and how a tile is bound.
     binder: Binder,
+    /// What a tile of each level holds on the device (its tile `(0, 0)`, the largest).
+    level_bytes: Vec<u64>,
     resident: HashMap<Key, Resident>,
     requests: mpsc::Sender<Key>,
     results: mpsc::Receiver<Loaded>,
@@ -210,8 +212,9 @@ impl TerrainStream {
             tile_device_bytes(&entries)
         };
         let roots: Vec<Key> = tiles.roots().collect();
+        let level_bytes: Vec<u64> = (0..tiles.levels.len() as u32).map(|k| tile_bytes((k, 0, 0))).collect();
         let root_bytes: u64 = roots.iter().map(|&k| tile_bytes(k)).sum();
-        let largest = tile_bytes((0, 0, 0));
+        let largest = level_bytes[0];
         if root_bytes + largest > options.resident_bytes {
             return Err(bad(format!(
                 "the coarsest level's {} tiles hold {root_bytes} bytes and a level-0 tile {largest}: above the \
@@ -247,6 +250,7 @@ impl TerrainStream {
             program: program.expect("at least one coarsest tile"),
             options,
             binder,
+            level_bytes,
             resident,
             requests,
             results,
@@ -292,8 +296,9 @@ impl TerrainStream {
         }
         self.ready.retain(|(key, _)| plan.rank(*key).is_some() && !self.resident.contains_key(key));
         self.ready.make_contiguous().sort_by_key(|(key, _)| plan.rank(*key));
-        // 3. Requests, coarser and nearer first (the order of `wanted`).
-        for &key in &plan.wanted {
+        // 3. Requests, coarser and nearer first (the order of `wanted`), of what the budget holds.
+        let level_bytes = &self.level_bytes;
+        for &key in plan.affordable(self.options.resident_bytes, |k| level_bytes[k.0 as usize]) {
             if self.pending.len() >= MAX_PENDING {
                 break;
             }

@@ -239,6 +239,17 @@ impl TilePlan {
         self.rank.get(&key).copied()
     }
 
+    /// The most wanted tiles whose bytes (`bytes` of each) fit `budget` together: the tiles
+    /// worth reading now. Tiles past them would only wait for room the budget cannot make.
+    pub fn affordable(&self, budget: u64, bytes: impl Fn(TileKey) -> u64) -> &[TileKey] {
+        let mut total = 0u64;
+        let n = self.wanted.iter().take_while(|&&k| {
+            total = total.saturating_add(bytes(k));
+            total <= budget
+        });
+        &self.wanted[..n.count()]
+    }
+
     /// The resident tile to evict to make room for `incoming`, from `resident` (each tile with
     /// the frame it was last drawn): first those no longer wanted, least recently drawn first,
     /// then wanted ones less wanted than `incoming`, least wanted first; never a tile drawn now,
@@ -377,6 +388,15 @@ mod tests {
         // Without the unwanted tile only tiles drawn now or of the coarsest level remain.
         let drawn_now: Vec<(TileKey, u64)> = plan.drawn.iter().map(|&k| (k, 0)).collect();
         assert_eq!(plan.victim(near, drawn_now.into_iter().chain([((2, 0, 0), 0)])), None);
+    }
+
+    #[test]
+    fn only_the_wanted_tiles_the_budget_holds_are_affordable() {
+        let l = layout();
+        let plan = l.plan((5.0, 5.0), &super::super::StreamOptions { detail: 1e9, ..Default::default() }, |_| true);
+        assert_eq!(plan.affordable(u64::MAX, |_| 10).len(), plan.wanted.len());
+        assert_eq!(plan.affordable(35, |_| 10), &plan.wanted[..3]);
+        assert!(plan.affordable(5, |_| 10).is_empty());
     }
 
     #[test]

@@ -1,0 +1,533 @@
+//! Terrain of any size: [`StreamedTerrain`] draws a map baked in tiles and levels of detail
+//! from the tiles near the camera and coarser ones farther out, each tile read through Bevy's
+//! asset source on its IO task pool and added within a byte budget a frame. The choice of
+//! tiles is hikage-runtime's `TerrainStream`'s ([`TileLayout::plan`]); each tile is drawn with
+//! the [`TerrainMaterial`] of [`crate::HorizonTerrain`].
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use bevy_asset::io::{AssetSourceId, Reader};
+use bevy_asset::{AssetEvent, AssetId, AssetServer, Assets, Handle, RenderAssetUsages};
+use bevy_camera::primitives::Aabb;
+use bevy_camera::visibility::Visibility;
+use bevy_camera::{Camera, Camera3d};
+use bevy_ecs::prelude::*;
+use bevy_image::Image;
+use bevy_light::NotShadowCaster;
+use bevy_mesh::{Mesh, Mesh3d};
+use bevy_pbr::{ExtendedMaterial, MeshMaterial3d, StandardMaterial};
+use bevy_tasks::{IoTaskPool, Task};
+use bevy_transform::components::{GlobalTransform, Transform};
+use hikage_bundle::{Asset as Entry, Limits, TextureData};
+use hikage_runtime::horizon::{
+    HorizonEncoding, MAX_TILE_SIDE, StreamOptions, StreamStats, TileKey, TileLayout, TilePlan, apron_neighbours,
+    heights_with_apron,
+};
+
+use crate::diagnostics::{Check, NamesBundle, Problems, SunShadowed};
+use crate::terrain::{TerrainExtension, TerrainMaterial, TerrainUniform};
+use crate::{HikageBundle, RegisteredLoader};
+
+/// Tiles being read at once at most: enough to keep the IO pool busy, few enough that a camera
+/// turning round does not leave a long queue of tiles no longer wanted.
+const MAX_PENDING: usize = 8;
+
+/// Draws a terrain baked in tiles and levels of detail (a `Horizon` job with `tile` and
+/// `levels`), streamed around the first active 3D camera: put it on an entity with a
+/// `Transform`, which places the map frame (level 0's texel `(i, j)` at `((i + ½)·sx, h,
+/// (j + ½)·sy)`, as [`crate::HorizonTerrain`]'s).
+///
+/// - **Level of detail by distance:** from the coarsest level down, a tile is replaced by its
+///   four finer tiles while the camera is within [`StreamOptions::detail`] tile widths of it,
+///   horizontally; a tile stays drawn until all four of its finer tiles are ready.
+/// - **Loading** never blocks a frame: the tiles' payloads are read through the bundle's Bevy
+///   asset source (files, the web, an embedded source alike), checked (size, BLAKE3, contents)
+///   and made into meshes and images on Bevy's IO task pool, at most 8 at a time.
+/// - **Budgets:** at most [`StreamOptions::upload_bytes`] of new tiles a frame and
+///   [`StreamOptions::resident_bytes`] resident, counting each tile's textures as the device
+///   holds them and its mesh's vertices and indices. Tiles no longer wanted go first, least
+///   recently drawn first; the coarsest level's tiles always stay, so there is always terrain.
+/// - **Cracks** where two levels meet are hidden by skirts ([`StreamOptions::skirt_texels`]).
+/// - Every tile's textures are at most `MAX_TILE_SIDE` (2048) a side.
+///
+/// Each tile is a child entity with a [`TerrainTile`], Bevy's `Mesh3d` and a
+/// [`TerrainMaterial`]; the sun is the scene's first `DirectionalLight`, with
+/// `shadow_maps_enabled`, as for [`crate::HorizonTerrain`]. A `NotShadowCaster` on this entity
+/// is given to its tiles. What the stream holds is in its [`TerrainStreamStats`].
+///
+/// ```no_run
+/// use bevy::prelude::*;
+/// use hikage_bevy::StreamedTerrain;
+///
+/// fn setup(mut commands: Commands, assets: Res<AssetServer>) {
+///     // The tiles of the `terrain` job (`tile: Some(256), levels: Some(16)`).
+///     commands.spawn(StreamedTerrain::new(assets.load("bundle/bundle.ron"), "terrain"));
+/// }
+/// ```
+#[derive(Component, Clone, Debug)]
+#[require(Transform, Visibility, Problems, TerrainStreamStats)]
+pub struct StreamedTerrain {
+    /// The bundle holding the tiles.
+    pub bundle: Handle<HikageBundle>,
+    /// The tiled job's id: its tiles are `<map>.height`, `<map>.horizon` and, when baked,
+    /// `<map>.ao` (their AO is used).
+    pub map: String,
+    /// Budgets and level of detail.
+    pub options: StreamOptions,
+    /// The surface under the shadows (colour, roughness); every tile gets a copy.
+    pub base: StandardMaterial,
+}
+
+impl StreamedTerrain {
+    /// The tiles of map `map` in `bundle`, white and rough, with the default budgets (256 MiB
+    /// resident, 32 MiB a frame).
+    pub fn new(bundle: Handle<HikageBundle>, map: impl Into<String>) -> StreamedTerrain {
+        StreamedTerrain {
+            bundle,
+            map: map.into(),
+            options: StreamOptions::default(),
+            base: StandardMaterial { perceptual_roughness: 1.0, ..StandardMaterial::default() },
+        }
+    }
+
+    /// The same with `options` (budgets, level of detail, skirts).
+    pub fn with_options(mut self, options: StreamOptions) -> StreamedTerrain {
+        self.options = options;
+        self
+    }
+
+    /// The same over `base` (colour, roughness).
+    pub fn with_base(mut self, base: StandardMaterial) -> StreamedTerrain {
+        self.base = base;
+        self
+    }
+}
+
+/// What a [`StreamedTerrain`] holds after the last frame, and what that frame did.
+///
+/// ```no_run
+/// use bevy::prelude::*;
+/// use hikage_bevy::TerrainStreamStats;
+///
+/// fn report(terrains: Query<&TerrainStreamStats>) {
+///     for stats in &terrains {
+///         info!("{} tiles, {} bytes resident", stats.0.resident_tiles, stats.0.resident_bytes);
+///     }
+/// }
+/// ```
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TerrainStreamStats(pub StreamStats);
+
+/// One tile of a [`StreamedTerrain`], on each of its child entities (hidden while not drawn).
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct TerrainTile {
+    /// Level of detail (0: the map as baked), column and row in the level's grid of tiles.
+    pub key: TileKey,
+    /// The tile's first and last node in the map frame (world units along `u` and `v`).
+    pub rect: [(f32, f32); 2],
+}
+
+impl NamesBundle for StreamedTerrain {
+    fn bundle(&self) -> &Handle<HikageBundle> {
+        &self.bundle
+    }
+}
+
+impl SunShadowed for StreamedTerrain {}
+
+/// The stream of one [`StreamedTerrain`] (on its entity).
+#[derive(Component)]
+pub(crate) struct Streaming {
+    /// The bundle it was built from (a reload builds it again).
+    bundle: AssetId<HikageBundle>,
+    layout: TileLayout,
+    /// Where the tiles' files are: the manifest's asset source and directory.
+    source: AssetSourceId<'static>,
+    dir: PathBuf,
+    /// What a tile of each level holds (its tile `(0, 0)`, the largest).
+    level_bytes: Vec<u64>,
+    resident: HashMap<TileKey, Resident>,
+    pending: HashMap<TileKey, Task<Result<Loaded, String>>>,
+    ready: Vec<(TileKey, Loaded)>,
+    frame: u64,
+}
+
+/// A tile's entity and what it holds.
+struct Resident {
+    entity: Entity,
+    bytes: u64,
+    last_used: u64,
+    shown: bool,
+}
+
+/// A tile read and made ready to add.
+struct Loaded {
+    mesh: Mesh,
+    bounds: Aabb,
+    horizon: Image,
+    ao: Option<Image>,
+    uniform: TerrainUniform,
+    bytes: u64,
+}
+
+/// What reading one tile needs: its entries and its neighbours' heights' entries.
+struct Request {
+    height: Entry,
+    horizon: Entry,
+    ao: Option<Entry>,
+    neighbours: [Option<Entry>; 4],
+}
+
+/// The system's view of a terrain entity.
+type TerrainState<'a> = (
+    Entity,
+    Ref<'a, StreamedTerrain>,
+    &'a GlobalTransform,
+    Option<&'a mut Streaming>,
+    &'a mut Problems,
+    &'a mut TerrainStreamStats,
+    Has<NotShadowCaster>,
+);
+
+/// The asset stores a tile is added to.
+#[derive(bevy_ecs::system::SystemParam)]
+pub(crate) struct TileAssets<'w> {
+    images: ResMut<'w, Assets<Image>>,
+    meshes: ResMut<'w, Assets<Mesh>>,
+    materials: ResMut<'w, Assets<TerrainMaterial>>,
+}
+
+/// Streams every [`StreamedTerrain`]: (re)builds its layout when its bundle (re)loads or the
+/// component changes, then chooses, requests, adds, evicts and shows tiles for the camera.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn stream_terrain(
+    mut commands: Commands,
+    server: Res<AssetServer>,
+    loader: Res<RegisteredLoader>,
+    mut events: MessageReader<AssetEvent<HikageBundle>>,
+    bundles: Res<Assets<HikageBundle>>,
+    mut assets: TileAssets,
+    cameras: Query<(&Camera, &GlobalTransform), With<Camera3d>>,
+    mut terrains: Query<TerrainState>,
+) {
+    let reloaded: Vec<_> =
+        events.read().filter_map(|e| if let AssetEvent::Modified { id } = e { Some(*id) } else { None }).collect();
+    let eye = cameras.iter().find(|(c, _)| c.is_active).map(|(_, t)| t.translation());
+    for (entity, terrain, placed, mut streaming, mut problems, mut stats, no_shadow) in &mut terrains {
+        let stale = streaming
+            .as_ref()
+            .is_none_or(|s| terrain.is_changed() || reloaded.contains(&s.bundle) || s.bundle != terrain.bundle.id());
+        if stale {
+            let Some(bundle) = bundles.get(&terrain.bundle) else { continue };
+            if problems.get(Check::Build).is_some() && !terrain.is_changed() && !reloaded.contains(&terrain.bundle.id())
+            {
+                continue;
+            }
+            if let Some(old) = streaming.as_mut() {
+                for r in old.resident.values() {
+                    commands.entity(r.entity).despawn();
+                }
+                old.resident.clear();
+            }
+            match start(&server, &terrain, bundle) {
+                Ok(s) => {
+                    Problems::set(&mut problems, Check::Build, None);
+                    match streaming.as_mut() {
+                        Some(old) => **old = s,
+                        None => {
+                            commands.entity(entity).insert(s);
+                            continue;
+                        }
+                    }
+                }
+                Err(message) => {
+                    if streaming.is_some() {
+                        commands.entity(entity).remove::<Streaming>();
+                    }
+                    Problems::set(&mut problems, Check::Build, Some(message));
+                    continue;
+                }
+            }
+        }
+        let (Some(s), Some(bundle), Some(eye)) = (streaming.as_deref_mut(), bundles.get(&terrain.bundle), eye) else {
+            continue;
+        };
+        let cam = placed.affine().inverse().transform_point3(eye);
+        let options = &terrain.options;
+        s.frame += 1;
+        let plan = s.layout.plan((cam.x, cam.z), options, |k| s.resident.contains_key(&k));
+        // What the IO pool finished; what is no longer wanted is dropped (and its read stopped).
+        let mut failure = None;
+        let mut finished = Vec::new();
+        for (key, task) in s.pending.iter_mut() {
+            if let Some(result) = bevy_tasks::futures::check_ready(task) {
+                finished.push(*key);
+                match result {
+                    Ok(loaded) => s.ready.push((*key, loaded)),
+                    Err(e) => failure = failure.or(Some(e)),
+                }
+            }
+        }
+        for key in finished {
+            s.pending.remove(&key);
+        }
+        s.pending.retain(|key, _| plan.rank(*key).is_some());
+        s.ready.retain(|(key, _)| plan.rank(*key).is_some() && !s.resident.contains_key(key));
+        s.ready.sort_by_key(|(key, _)| std::cmp::Reverse(plan.rank(*key)));
+        // Requests, the coarsest level first, then in the plan's order, of what the budget holds.
+        let roots: Vec<TileKey> = s.layout.roots().collect();
+        let affordable = plan.affordable(options.resident_bytes, |k| s.level_bytes[k.0 as usize]);
+        for &key in roots.iter().chain(affordable) {
+            if s.pending.len() >= MAX_PENDING {
+                break;
+            }
+            let queued = s.pending.contains_key(&key) || s.ready.iter().any(|(k, _)| *k == key);
+            if s.resident.contains_key(&key) || queued {
+                continue;
+            }
+            match request(bundle, &s.layout, key) {
+                Ok(r) => {
+                    let task = read_tile(&server, s, r, loader.0.device_features(), options);
+                    s.pending.insert(key, task);
+                }
+                Err(e) => failure = failure.or(Some(e)),
+            }
+        }
+        // New tiles within the frame's budget, most wanted first, making room by evicting.
+        let mut uploaded = 0u64;
+        while let Some((key, loaded)) = s.ready.pop() {
+            if uploaded + loaded.bytes > options.upload_bytes
+                || !make_room(&mut commands, s, loaded.bytes, key, &plan, options.resident_bytes)
+            {
+                s.ready.push((key, loaded));
+                break;
+            }
+            uploaded += loaded.bytes;
+            let bytes = loaded.bytes;
+            let tile = add_tile(&mut commands, &mut assets, &terrain.base, &s.layout, key, loaded, entity, no_shadow);
+            s.resident.insert(key, Resident { entity: tile, bytes, last_used: s.frame, shown: false });
+        }
+        // Show the tiles the plan draws (it may draw tiles added above only from next frame).
+        let drawn: std::collections::HashSet<TileKey> = plan.drawn.iter().copied().collect();
+        for (key, r) in s.resident.iter_mut() {
+            let show = drawn.contains(key);
+            if show {
+                r.last_used = s.frame;
+            }
+            if show != r.shown {
+                r.shown = show;
+                let visibility = if show { Visibility::Inherited } else { Visibility::Hidden };
+                commands.entity(r.entity).insert(visibility);
+            }
+        }
+        stats.0 = StreamStats {
+            resident_tiles: s.resident.len(),
+            resident_bytes: s.resident.values().map(|r| r.bytes).sum(),
+            uploaded_bytes: uploaded,
+            drawn: plan.drawn.len(),
+            missing: plan.wanted.iter().filter(|k| !s.resident.contains_key(k)).count(),
+            finest_drawn: plan.drawn.iter().map(|k| k.0).min().unwrap_or(s.layout.coarsest()),
+        };
+        if failure.is_some() || problems.get(Check::Tiles).is_some() {
+            Problems::set(&mut problems, Check::Tiles, failure);
+        }
+    }
+}
+
+/// The stream of `terrain` over its loaded `bundle`: the layout of its tiles, checked against
+/// the budgets before anything is read; or why not.
+fn start(server: &AssetServer, terrain: &StreamedTerrain, bundle: &HikageBundle) -> Result<Streaming, String> {
+    let entry = |part: &str, key: TileKey| bundle.manifest.asset(&TileLayout::tile_id(part, key)).cloned();
+    let layout = TileLayout::new(&terrain.map, |part, level, (x, y)| entry(part, (level, x, y)))
+        .map_err(|e| format!("map `{}`: {e}", terrain.map))?;
+    let bytes = |key: TileKey| -> u64 {
+        let mut total = 0;
+        for part in [Some(&layout.parts.horizon), layout.parts.ao.as_ref()].into_iter().flatten() {
+            total += entry(part, key).and_then(|e| e.payload.texture()?.total_bytes()).unwrap_or(0);
+        }
+        let heights = entry(&layout.parts.height, key).and_then(|e| e.payload.texture().cloned());
+        total + heights.map_or(0, |t| mesh_bytes(t.width, t.height))
+    };
+    let first = entry(&layout.parts.horizon, (0, 0, 0)).and_then(|e| e.payload.texture().cloned());
+    if let Some(t) = first.filter(|t| t.width.max(t.height) > MAX_TILE_SIDE) {
+        return Err(format!(
+            "map `{}`: tiles of {}×{} texels, above the {MAX_TILE_SIDE} a side every backend holds (bake with tile ≤ {})",
+            terrain.map,
+            t.width,
+            t.height,
+            MAX_TILE_SIDE - 1
+        ));
+    }
+    let level_bytes: Vec<u64> = (0..layout.levels.len() as u32).map(|k| bytes((k, 0, 0))).collect();
+    let (roots, largest) = (layout.roots().map(bytes).sum::<u64>(), level_bytes[0]);
+    let options = &terrain.options;
+    if roots + largest > options.resident_bytes {
+        return Err(format!(
+            "map `{}`: the coarsest level's tiles hold {roots} bytes and a level-0 tile {largest}, above the resident \
+             budget of {} (bake levels of detail, `levels: Some(16)`, or raise `resident_bytes`)",
+            terrain.map, options.resident_bytes
+        ));
+    }
+    if largest > options.upload_bytes {
+        return Err(format!(
+            "map `{}`: a level-0 tile holds {largest} bytes, above the upload budget of {} a frame",
+            terrain.map, options.upload_bytes
+        ));
+    }
+    let path = server.get_path(terrain.bundle.id()).ok_or("the bundle has no asset path")?;
+    Ok(Streaming {
+        bundle: terrain.bundle.id(),
+        layout,
+        level_bytes,
+        source: path.source().clone_owned(),
+        dir: path.path().parent().map(Path::to_path_buf).unwrap_or_default(),
+        resident: HashMap::new(),
+        pending: HashMap::new(),
+        ready: Vec::new(),
+        frame: 0,
+    })
+}
+
+/// The bytes of a tile mesh of `w`×`h` nodes with skirts: positions, normals and UVs (32 bytes
+/// a vertex) and 4-byte indices.
+fn mesh_bytes(w: u32, h: u32) -> u64 {
+    let (w, h) = (w as u64, h as u64);
+    let ring = 2 * (w + h).saturating_sub(2);
+    (w * h + ring) * 32 + 4 * 6 * ((w.saturating_sub(1)) * (h.saturating_sub(1)) + ring)
+}
+
+/// The entries tile `key` is read from; or why not (a tile the layout expects is missing).
+fn request(bundle: &HikageBundle, layout: &TileLayout, key: TileKey) -> Result<Request, String> {
+    let entry = |part: &str, key: TileKey| bundle.manifest.asset(&TileLayout::tile_id(part, key)).cloned();
+    let must = |part: &str| {
+        entry(part, key).ok_or_else(|| format!("tile `{}` is not in the bundle", TileLayout::tile_id(part, key)))
+    };
+    Ok(Request {
+        height: must(&layout.parts.height)?,
+        horizon: must(&layout.parts.horizon)?,
+        ao: layout.parts.ao.as_deref().map(must).transpose()?,
+        neighbours: apron_neighbours(key).map(|n| n.and_then(|k| entry(&layout.parts.height, k))),
+    })
+}
+
+/// Starts reading tile `r` on the IO task pool.
+fn read_tile(
+    server: &AssetServer,
+    s: &Streaming,
+    r: Request,
+    features: hikage_runtime::wgpu::Features,
+    options: &StreamOptions,
+) -> Task<Result<Loaded, String>> {
+    let (server, source, dir) = (server.clone(), s.source.clone(), s.dir.clone());
+    let skirt_texels = options.skirt_texels;
+    IoTaskPool::get().spawn(async move {
+        let read = async |entry: &Entry| -> Result<Vec<u8>, String> {
+            let path = dir.join(&entry.file);
+            let source = server.get_source(source.clone()).map_err(|e| e.to_string())?;
+            let mut reader = source.reader().read(&path).await.map_err(|e| format!("{}: {e}", path.display()))?;
+            let mut bytes = Vec::new();
+            reader.read_to_end(&mut bytes).await.map_err(|e| format!("{}: {e}", path.display()))?;
+            crate::loader::check(entry, &bytes, &Limits::default())
+                .map_err(|e| format!("{}: asset `{}`: {e}", path.display(), entry.id))?;
+            Ok(bytes)
+        };
+        let heights = async |entry: &Entry| -> Result<TextureData, String> {
+            let bytes = read(entry).await?;
+            hikage_bundle::ktx2_file::decode(&bytes, Path::new(&entry.file), &Limits::default())
+                .map_err(|e| e.to_string())
+        };
+        let own = heights(&r.height).await?;
+        let mut sides = [None, None, None, None];
+        for (side, entry) in sides.iter_mut().zip(&r.neighbours) {
+            if let Some(entry) = entry {
+                *side = Some(heights(entry).await?);
+            }
+        }
+        let apron = heights_with_apron(&own, &sides);
+        let hf = r.height.settings.heightfield().ok_or_else(|| format!("`{}` is not a heightfield", r.height.id))?;
+        let skirt = skirt_texels * hf.texel_size.0.max(hf.texel_size.1);
+        let (mesh, bounds) =
+            crate::grid::tile_mesh(&apron, hf, skirt).map_err(|e| format!("`{}`: {e}", r.height.id))?;
+        let image = async |entry: &Entry| -> Result<Image, String> {
+            let bytes = read(entry).await?;
+            crate::loader::texture_image(entry, &bytes, features, RenderAssetUsages::RENDER_WORLD)
+                .map_err(|e| format!("`{}`: {e}", entry.id))
+        };
+        let horizon = image(&r.horizon).await?;
+        let ao = match &r.ao {
+            Some(entry) => Some(image(entry).await?),
+            None => None,
+        };
+        let settings = r.horizon.settings.horizon().ok_or_else(|| format!("`{}` is not a horizon", r.horizon.id))?;
+        let format = r.horizon.payload.texture().map(|t| t.format).ok_or("a horizon tile without a texture")?;
+        let encoding = HorizonEncoding::new(format, settings);
+        let uniform = TerrainUniform::new(&encoding, settings.texel_size, ao.is_some());
+        let image_bytes = |i: &Image| i.data.as_ref().map_or(0, |d| d.len() as u64);
+        let indices = mesh.indices().map_or(0, |i| i.len() as u64);
+        let bytes = image_bytes(&horizon)
+            + ao.as_ref().map_or(0, image_bytes)
+            + mesh.count_vertices() as u64 * mesh.get_vertex_size()
+            + 4 * indices;
+        Ok(Loaded { mesh, bounds, horizon, ao, uniform, bytes })
+    })
+}
+
+/// Evicts tiles until `bytes` more fit `budget` for `incoming`, in the order
+/// [`TilePlan::victim`] gives. False when the bytes cannot be found.
+fn make_room(
+    commands: &mut Commands,
+    s: &mut Streaming,
+    bytes: u64,
+    incoming: TileKey,
+    plan: &TilePlan,
+    budget: u64,
+) -> bool {
+    loop {
+        let resident: u64 = s.resident.values().map(|r| r.bytes).sum();
+        if resident + bytes <= budget {
+            return true;
+        }
+        match plan.victim(incoming, s.resident.iter().map(|(k, r)| (*k, r.last_used))) {
+            Some(k) => {
+                let gone = s.resident.remove(&k).expect("a resident tile");
+                commands.entity(gone.entity).despawn();
+            }
+            None => return false,
+        }
+    }
+}
+
+/// Adds tile `key` as a hidden child of `parent`: its mesh, its images and its material.
+#[allow(clippy::too_many_arguments)]
+fn add_tile(
+    commands: &mut Commands,
+    assets: &mut TileAssets,
+    base: &StandardMaterial,
+    layout: &TileLayout,
+    key: TileKey,
+    loaded: Loaded,
+    parent: Entity,
+    no_shadow: bool,
+) -> Entity {
+    let extension = TerrainExtension {
+        uniform: loaded.uniform,
+        horizon: assets.images.add(loaded.horizon),
+        ao: loaded.ao.map(|ao| assets.images.add(ao)),
+    };
+    let material = assets.materials.add(ExtendedMaterial { base: base.clone(), extension });
+    let (x, z) = layout.offset(key);
+    let mut tile = commands.spawn((
+        TerrainTile { key, rect: layout.rect(key) },
+        Mesh3d(assets.meshes.add(loaded.mesh)),
+        MeshMaterial3d(material),
+        loaded.bounds,
+        Transform::from_xyz(x, 0.0, z),
+        Visibility::Hidden,
+        ChildOf(parent),
+    ));
+    if no_shadow {
+        tile.insert(NotShadowCaster);
+    }
+    tile.id()
+}

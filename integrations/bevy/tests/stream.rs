@@ -1,0 +1,209 @@
+//! `StreamedTerrain` on a GPU (lavapipe in CI), on a 512² terrain the test generates and bakes
+//! whole and in 64² tiles with every level of detail (4 levels): with level 0 everywhere it
+//! draws what `HorizonTerrain` draws of the whole map, tile edges included; a scripted flight
+//! keeps its budgets and always has terrain under the camera; a wrong map is said.
+
+#[path = "../examples/common/mod.rs"]
+mod common;
+
+use std::path::PathBuf;
+
+use bevy::light::NotShadowCaster;
+use bevy::prelude::*;
+use hikage_bevy::{
+    HikageBundle, HikageError, HorizonTerrain, StreamOptions, StreamedTerrain, TerrainStreamStats, TerrainTile,
+};
+
+use common::{Headless, MaskScene, gpu_or_skip};
+
+/// Map side, tile size and texel size (m).
+const N: u32 = 512;
+const TILE: u32 = 64;
+const TEXEL: f32 = 30.0;
+
+/// The generated terrain baked whole (`whole`) and in tiles with every level (`dem`).
+fn bundle() -> PathBuf {
+    static BAKED: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    BAKED.get_or_init(bake).clone()
+}
+
+fn bake() -> PathBuf {
+    let tmp = option_env!("CARGO_TARGET_TMPDIR").map_or_else(std::env::temp_dir, PathBuf::from);
+    std::fs::create_dir_all(&tmp).unwrap();
+    let dem = tmp.join("stream_dem.r32");
+    let heights: Vec<u8> = hikage_devkit::synth::terrain(N).into_iter().flat_map(f32::to_le_bytes).collect();
+    std::fs::write(&dem, heights).unwrap();
+    let job = |id: &str, tiles: &str| {
+        format!(
+            r#"Horizon(id: "{id}", input: "{}", texel_size: ({TEXEL}, {TEXEL}), height_scale: 1200,
+               directions: 16, edge: Clamp, max_distance: 900, ao: true{tiles}),"#,
+            dem.display()
+        )
+    };
+    common::bake("stream", &format!("{} {}", job("whole", ""), job("dem", &format!(", tile: {TILE}, levels: 16"))))
+}
+
+/// A low sun from the south-west, 6° up, as the direction toward it.
+fn low_sun() -> Vec3 {
+    let e = 6f32.to_radians();
+    Vec3::new(-0.8 * e.cos(), e.sin(), 0.6 * e.cos()).normalize()
+}
+
+/// Straight down on the whole map, one pixel a texel.
+fn scene(dir: &std::path::Path) -> MaskScene {
+    let half = N as f32 * TEXEL / 2.0;
+    MaskScene::new(
+        dir,
+        N,
+        low_sun(),
+        Transform::from_xyz(half, 3000.0, half).looking_at(Vec3::new(half, 0.0, half), Vec3::NEG_Z),
+        MaskScene::orthographic(2.0 * half, 2.0 * half, 6000.0),
+    )
+}
+
+fn stats(world: &mut World, terrain: Entity) -> hikage_bevy::StreamStats {
+    world.get::<TerrainStreamStats>(terrain).map(|s| s.0).unwrap_or_default()
+}
+
+#[test]
+fn streamed_level_0_draws_as_the_whole_map_across_tile_edges() {
+    if !gpu_or_skip("streamed_level_0_draws_as_the_whole_map_across_tile_edges") {
+        return;
+    }
+    let dir = bundle();
+    let MaskScene { mut app, target, .. } = scene(&dir);
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+
+    // The whole map as one mesh.
+    let whole = app
+        .world()
+        .spawn((HorizonTerrain::new(bundle.clone(), "whole.horizon").with_ao("whole.ao"), NotShadowCaster))
+        .id();
+    assert!(app.update_until(600, |w| w.get::<MeshMaterial3d<hikage_bevy::TerrainMaterial>>(whole).is_some()));
+    let a = app.capture_bytes_settled(&target);
+    app.world().despawn(whole);
+
+    // The same map streamed, level 0 everywhere: every tile split down, all of them resident.
+    let options =
+        StreamOptions { detail: 1e9, resident_bytes: 1 << 30, upload_bytes: 1 << 30, ..StreamOptions::default() };
+    let terrain =
+        app.world().spawn((StreamedTerrain::new(bundle.clone(), "dem").with_options(options), NotShadowCaster)).id();
+    let tiles = (N / TILE) as usize;
+    let ready = app.update_until(2000, |w| {
+        let s = stats(w, terrain);
+        s.missing == 0 && s.finest_drawn == 0 && s.drawn == tiles * tiles
+    });
+    assert!(ready, "level 0 never drawn everywhere: {:?}", stats(app.world(), terrain));
+    assert!(app.world().get::<HikageError>(terrain).is_none(), "{:?}", app.world().get::<HikageError>(terrain));
+    let b = app.capture_bytes_settled(&target);
+
+    // Every pixel: the map fills the view; terrain in shadow is black (no ambient light).
+    let (mut differ, mut edge_pixels, mut edge_differ, mut lit) = (0, 0, 0, 0);
+    for row in 0..N {
+        for col in 0..N {
+            let k = (row * N + col) as usize;
+            lit += (a[k][..3] != [0, 0, 0]) as usize;
+            let near_edge = [col, row].iter().any(|&c| matches!(c % TILE, 0 | 1 | 63));
+            edge_pixels += near_edge as usize;
+            let different = a[k][..3].iter().zip(&b[k][..3]).any(|(x, y)| x.abs_diff(*y) > 1);
+            differ += different as usize;
+            edge_differ += (different && near_edge) as usize;
+        }
+    }
+    let all = (N * N) as usize;
+    eprintln!(
+        "bevy stream vs whole: {all} pixels, {:.1}% lit; {differ} differ; {edge_differ} of {edge_pixels} within a \
+         pixel of a tile edge",
+        100.0 * lit as f64 / all as f64
+    );
+    assert!((all / 5..all * 19 / 20).contains(&lit), "a low sun lights part of the map: {lit} of {all} pixels lit");
+    assert_eq!(edge_differ, 0, "pixels along tile edges differ");
+    assert!(differ * 1000 <= all, "{differ} of {all} pixels differ");
+}
+
+#[test]
+fn a_flight_keeps_its_budgets_and_always_has_terrain_underneath() {
+    if !gpu_or_skip("a_flight_keeps_its_budgets_and_always_has_terrain_underneath") {
+        return;
+    }
+    let dir = bundle();
+    let mut app = Headless::new(&dir, |app| {
+        app.add_plugins(hikage_bevy::HikagePlugin);
+    });
+    let target = app.target(64, 64);
+    let side = N as f32 * TEXEL;
+    let camera = app
+        .world()
+        .spawn((
+            Camera3d::default(),
+            bevy::camera::RenderTarget::from(target),
+            Transform::from_xyz(0.05 * side, 800.0, 0.05 * side),
+        ))
+        .id();
+    app.world().spawn((
+        DirectionalLight { shadow_maps_enabled: true, ..default() },
+        Transform::IDENTITY.looking_to(-low_sun(), Vec3::Y),
+    ));
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    // A budget of about 20 level-0 tiles (0.4 MiB each), uploads of about 2 a frame.
+    let options = StreamOptions { resident_bytes: 8 << 20, upload_bytes: 1 << 20, ..StreamOptions::default() };
+    let terrain = app.world().spawn(StreamedTerrain::new(bundle, "dem").with_options(options)).id();
+    assert!(app.update_until(600, |w| stats(w, terrain).drawn > 0), "the coarsest level never came");
+
+    let (mut finest, mut streamed, mut peak) = (u32::MAX, 0u64, 0u64);
+    let frames = 240;
+    for frame in 0..frames {
+        // From one corner to the other, low.
+        let t = frame as f32 / (frames - 1) as f32;
+        let at = Vec3::new((0.05 + 0.9 * t) * side, 800.0, (0.05 + 0.9 * t) * side);
+        *app.world().get_mut::<Transform>(camera).unwrap() =
+            Transform::from_translation(at).looking_at(at + Vec3::new(1.0, -0.3, 1.0), Vec3::Y);
+        app.update();
+        let s = stats(app.world(), terrain);
+        assert!(s.resident_bytes <= options.resident_bytes, "frame {frame}: {s:?}");
+        assert!(s.uploaded_bytes <= options.upload_bytes, "frame {frame}: {s:?}");
+        // The camera's ground is covered by a drawn tile.
+        let mut tiles = app.world().query::<(&TerrainTile, &Visibility)>();
+        let under = tiles.iter(app.world()).any(|(tile, v)| {
+            let [lo, hi] = tile.rect;
+            *v != Visibility::Hidden && (lo.0..=hi.0).contains(&at.x) && (lo.1..=hi.1).contains(&at.z)
+        });
+        assert!(under, "frame {frame}: no terrain under the camera at {at}: {s:?}");
+        finest = finest.min(s.finest_drawn);
+        streamed += s.uploaded_bytes;
+        peak = peak.max(s.resident_bytes);
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    assert!(app.world().get::<HikageError>(terrain).is_none(), "{:?}", app.world().get::<HikageError>(terrain));
+    eprintln!(
+        "bevy flight: {frames} frames, {:.1} MiB streamed, peak {:.2} MiB resident of {:.0} MiB, finest level {finest}",
+        streamed as f64 / (1 << 20) as f64,
+        peak as f64 / (1 << 20) as f64,
+        options.resident_bytes as f64 / (1 << 20) as f64
+    );
+    assert_eq!(finest, 0, "level 0 was never drawn under the camera");
+    assert!(streamed > options.resident_bytes, "a flight across the map streams more than the budget holds");
+}
+
+/// A map the bundle does not have, and budgets its tiles cannot meet, are said on the entity.
+#[test]
+fn a_wrong_map_or_budget_is_said() {
+    if !gpu_or_skip("a_wrong_map_or_budget_is_said") {
+        return;
+    }
+    let dir = bundle();
+    let MaskScene { mut app, .. } = scene(&dir);
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    let wrong = app.world().spawn(StreamedTerrain::new(bundle.clone(), "nope")).id();
+    let tight = StreamOptions { resident_bytes: 1000, ..StreamOptions::default() };
+    let small = app.world().spawn(StreamedTerrain::new(bundle.clone(), "dem").with_options(tight)).id();
+    let whole = app.world().spawn(StreamedTerrain::new(bundle, "whole")).id();
+    let said = |w: &mut World, e: Entity| w.get::<HikageError>(e).map(|m| m.0.clone());
+    assert!(app.update_until(600, |w| [wrong, small, whole].iter().all(|&e| said(w, e).is_some())));
+    let wrong = said(app.world(), wrong).unwrap();
+    assert!(wrong.contains("map `nope`") && wrong.contains("tile"), "{wrong}");
+    let small = said(app.world(), small).unwrap();
+    assert!(small.contains("resident budget of 1000"), "{small}");
+    let whole = said(app.world(), whole).unwrap();
+    assert!(whole.contains("map `whole`"), "{whole}");
+}
