@@ -291,6 +291,19 @@ pub(crate) fn expected_bytes(set: &TileSet, max_records: u64) -> Result<u64, Str
 /// The assets of a set from its table file's `bytes` (already read): the file's size, hash
 /// and header are checked, and every record must name a part of the set and a tile of its map.
 pub(crate) fn unpack(set: &TileSet, bytes: &[u8], max_records: u64) -> Result<Vec<Asset>, String> {
+    check_table(set, bytes, max_records)?;
+    let records = bytes[HEADER_BYTES as usize..].chunks_exact(RECORD_BYTES as usize);
+    records
+        .enumerate()
+        .map(|(i, chunk)| {
+            let r = read_record(chunk);
+            record_part(set, i, &r).map(|part| expand(part, &r))
+        })
+        .collect()
+}
+
+/// A table's bytes against its set's entry: their length, BLAKE3 and header.
+fn check_table(set: &TileSet, bytes: &[u8], max_records: u64) -> Result<(), String> {
     let expected = expected_bytes(set, max_records)?;
     if bytes.len() as u64 != expected {
         return Err(format!("the file is {} bytes, the manifest says {expected}", bytes.len()));
@@ -299,21 +312,16 @@ pub(crate) fn unpack(set: &TileSet, bytes: &[u8], max_records: u64) -> Result<Ve
     if hash.as_str() != set.blake3 {
         return Err(format!("BLAKE3 is {hash}, the manifest says {} (the file was modified or corrupted)", set.blake3));
     }
-    check_header(bytes)?;
-    let records: Vec<&[u8]> = bytes[HEADER_BYTES as usize..].chunks_exact(RECORD_BYTES as usize).collect();
-    let part_ok: Vec<bool> = set.parts.iter().map(|p| p.settings.tile().is_some_and(|t| t.map == set.map)).collect();
-    records
-        .iter()
-        .enumerate()
-        .map(|(i, chunk)| {
-            let r = read_record(chunk);
-            match set.parts.get(r.part as usize) {
-                Some(part) if part_ok[r.part as usize] => Ok(expand(part, &r)),
-                Some(part) => Err(format!("part `{}` is not a tile of map `{}`", part.id, set.map)),
-                None => Err(format!("record {i} names part {} of a set of {} parts", r.part, set.parts.len())),
-            }
-        })
-        .collect()
+    check_header(bytes)
+}
+
+/// The part record `i` names, which must be a tile of the set's map.
+fn record_part<'a>(set: &'a TileSet, i: usize, r: &Record) -> Result<&'a Asset, String> {
+    match set.parts.get(r.part as usize) {
+        Some(part) if part.settings.tile().is_some_and(|t| t.map == set.map) => Ok(part),
+        Some(part) => Err(format!("part `{}` is not a tile of map `{}`", part.id, set.map)),
+        None => Err(format!("record {i} names part {} of a set of {} parts", r.part, set.parts.len())),
+    }
 }
 
 fn check_header(bytes: &[u8]) -> Result<(), String> {
@@ -372,28 +380,16 @@ impl TileIndex {
             if !crate::names::is_safe_file_name(&set.table) {
                 return Err(bad(format!("{:?} is not a plain file name inside the bundle directory", set.table)));
             }
-            expected_bytes(&set, room).map_err(bad)?;
-            let bytes = crate::files::read_limited(&table, set.byte_length, "tile table size")?;
-            if bytes.len() as u64 != set.byte_length {
-                return Err(bad(format!("the file is {} bytes, the manifest says {}", bytes.len(), set.byte_length)));
-            }
+            let length = expected_bytes(&set, room).map_err(bad)?;
+            let bytes = crate::files::read_limited(&table, length, "tile table size")?;
             // The whole set checked as a reader of the full manifest checks it, one tile of
             // each part standing for the rest (they differ only in numbers checked here).
-            let hash = blake3::hash(&bytes).to_hex();
-            if hash.as_str() != set.blake3 {
-                return Err(bad(format!("BLAKE3 is {hash}, the manifest says {}", set.blake3)));
-            }
-            check_header(&bytes).map_err(bad)?;
+            check_table(&set, &bytes, room).map_err(bad)?;
             let mut first: Vec<Option<Asset>> = vec![None; set.parts.len()];
             for (i, chunk) in bytes[HEADER_BYTES as usize..].chunks_exact(RECORD_BYTES as usize).enumerate() {
                 let r = read_record(chunk);
-                let Some(slot) = first.get_mut(r.part as usize) else {
-                    return Err(bad(format!("record {i} names part {} of a set of {} parts", r.part, set.parts.len())));
-                };
-                let part = &set.parts[r.part as usize];
-                if part.settings.tile().is_none_or(|p| p.map != set.map) {
-                    return Err(bad(format!("part `{}` is not a tile of map `{}`", part.id, set.map)));
-                }
+                let part = record_part(&set, i, &r).map_err(bad)?;
+                let slot = &mut first[r.part as usize];
                 let fits = |o: u32, n: u32, size: u32| o as u64 + n as u64 <= size as u64;
                 let map_size = part.settings.tile().map_or((0, 0), |p| p.map_size);
                 if !fits(r.origin.0, r.size.0, map_size.0) || !fits(r.origin.1, r.size.1, map_size.1) {
@@ -428,19 +424,9 @@ impl TileIndex {
         let id = format!("{part}{}", tile_suffix(level, index));
         self.sets.iter().find_map(|(set, bytes)| {
             let records = &bytes[HEADER_BYTES as usize..];
-            let (mut lo, mut hi) = (0usize, set.records as usize);
-            while lo < hi {
-                let mid = lo + (hi - lo) / 2;
-                let r = read_record(&records[mid * RECORD_BYTES as usize..][..RECORD_BYTES as usize]);
-                let part = &set.parts[r.part as usize];
-                let found = format!("{}{}", part.id, tile_suffix(r.level as u32, r.index));
-                match found.cmp(&id) {
-                    std::cmp::Ordering::Less => lo = mid + 1,
-                    std::cmp::Ordering::Greater => hi = mid,
-                    std::cmp::Ordering::Equal => return Some(expand(part, &r)),
-                }
-            }
-            None
+            let read = |i: u64| Ok(read_record(&records[(i * RECORD_BYTES) as usize..][..RECORD_BYTES as usize]));
+            // `open` checked every record's part.
+            search(set, &id, read, |_| ()).ok().flatten()
         })
     }
 
@@ -487,16 +473,30 @@ pub fn find_tile(
     file.read_exact(&mut header).map_err(|e| BundleError::io(&path, e))?;
     check_header(&header).map_err(bad)?;
     let id = format!("{part}{}", tile_suffix(level as u32, index));
-    let (mut lo, mut hi) = (0u64, set.records);
     let mut buf = [0u8; RECORD_BYTES as usize];
+    let read = |i: u64| {
+        file.seek(SeekFrom::Start(HEADER_BYTES + i * RECORD_BYTES)).map_err(|e| BundleError::io(&path, e))?;
+        file.read_exact(&mut buf).map_err(|e| BundleError::io(&path, e))?;
+        Ok(read_record(&buf))
+    };
+    search(set, &id, read, |i| bad(format!("record {i} names no part")))
+}
+
+/// The entry of tile `id` in `set`, found by binary search on its records (sorted by id), each
+/// read by `read`; `no_part(i)` is the error of a record `i` naming a part the set lacks.
+fn search<E>(
+    set: &TileSet,
+    id: &str,
+    mut read: impl FnMut(u64) -> Result<Record, E>,
+    no_part: impl Fn(u64) -> E,
+) -> Result<Option<Asset>, E> {
+    let (mut lo, mut hi) = (0u64, set.records);
     while lo < hi {
         let mid = lo + (hi - lo) / 2;
-        file.seek(SeekFrom::Start(HEADER_BYTES + mid * RECORD_BYTES)).map_err(|e| BundleError::io(&path, e))?;
-        file.read_exact(&mut buf).map_err(|e| BundleError::io(&path, e))?;
-        let r = read_record(&buf);
-        let part = set.parts.get(r.part as usize).ok_or_else(|| bad(format!("record {mid} names no part")))?;
+        let r = read(mid)?;
+        let part = set.parts.get(r.part as usize).ok_or_else(|| no_part(mid))?;
         let found = format!("{}{}", part.id, tile_suffix(r.level as u32, r.index));
-        match found.cmp(&id) {
+        match found.as_str().cmp(id) {
             std::cmp::Ordering::Less => lo = mid + 1,
             std::cmp::Ordering::Greater => hi = mid,
             std::cmp::Ordering::Equal => return Ok(Some(expand(part, &r))),
