@@ -1,6 +1,6 @@
 //! A large terrain streamed by `hikage_runtime::horizon::TerrainStream`: the devkit's rough
 //! terrain at 4096² (30 m texels: 123 km a side, 1.2 km of relief), baked here in 256² tiles
-//! with every level of detail, seen from 2 km up under a low sun (4° up). The shadows of ridges
+//! with every level of detail, seen from 5 km up under a low sun (2.5° up). The shadows of ridges
 //! run for kilometres, far past where a game's cascaded shadow maps end. The table gives the
 //! tiles drawn by level and what the stream holds.
 //!
@@ -42,12 +42,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         TerrainStream::open(&g.device, &g.queue, &scratch.join("bundle"), "dem", &options, StreamOptions::default())?;
     let side = N as f32 * TEXEL;
     let (w, h) = (960u32, 400u32);
-    let eye = Vec3::new(0.3 * side, 2000.0, 0.8 * side);
+    let eye = Vec3::new(0.3 * side, 5000.0, 0.8 * side);
     let view_proj = directx::perspective(60f32.to_radians(), w as f32 / h as f32, 50.0, 1.5 * side)
-        * look_at_mat4(eye, Vec3::new(0.55 * side, 0.0, 0.45 * side), Vec3::Y);
-    let e = 4f32.to_radians();
+        * look_at_mat4(eye, Vec3::new(0.45 * side, 0.0, 0.65 * side), Vec3::Y);
+    // The sun 2.5° up, across the view from the right.
+    let e = 2.5f32.to_radians();
     let sun = Sun {
-        direction: Vec3::new(-0.7 * e.cos(), e.sin(), -0.7 * e.cos()).normalize(),
+        direction: Vec3::new(0.7 * e.cos(), e.sin(), 0.7 * e.cos()).normalize(),
         color: Vec3::new(1.0, 0.85, 0.7) * 2.2,
         angular_radius: 0.00465,
     };
