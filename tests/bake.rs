@@ -113,6 +113,10 @@ fn thread_count_does_not_change_a_byte() {
     assert_eq!(kinds.into_iter().collect::<Vec<_>>(), ["curvature", "heightfield", "horizon", "relief", "strands"]);
     one.run(&["bake", "--jobs", "1"]);
     assert_eq!(one.bundle_files("bundle"), two.bundle_files("bundle"));
+    // And `hikage diff` says so.
+    let other = two.path("bundle");
+    let text = crate::util::stdout(&one.run_expecting(&["diff", other.to_str().unwrap(), "bundle"], 0));
+    assert!(text.contains("0 changed, 0 beyond tolerance"), "{text}");
 }
 
 #[test]

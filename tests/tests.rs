@@ -9,6 +9,7 @@ mod cache;
 mod concurrency;
 mod corpus;
 mod data;
+mod diff;
 mod gpu;
 mod gpu_bc;
 mod gpu_fit;

@@ -1,10 +1,11 @@
-//! `hikage`: bakes pipelines into bundles, validates, inspects and exports them.
+//! `hikage`: bakes pipelines into bundles, validates, inspects, compares and exports them.
 //!
 //! Thin by design: parse arguments, call `hikage-bake` / `hikage-bundle`, report. Exit codes:
 //! 0 success, 1 invalid input or failed validation, 2 usage error, 3 I/O error, 4 over budget.
 
 #[macro_use]
 mod output;
+mod diff;
 mod progress;
 
 use std::path::{Path, PathBuf};
@@ -95,6 +96,11 @@ enum Command {
         #[arg(long, value_enum, default_value_t = OutputFormat::Text)]
         format: OutputFormat,
     },
+    /// Compare two bundles asset by asset, each change measured in its method's own terms
+    /// (horizon angles and sun tests flipped, metres, texels, …); exit 1 when a change is beyond
+    /// tolerance, an asset is added or removed, or two cannot be compared.
+    #[command(after_help = diff::EXIT_CODES)]
+    Diff(diff::DiffArgs),
     /// Bake horizon and distance maps of one heightfield into BUNDLE (created, or its assets
     /// `<id>.height`, `<id>.horizon`, `<id>.ao` added or replaced; with --tile, one of each per
     /// tile, `<id>.horizon.<tx>_<ty>`).
@@ -254,6 +260,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
         Command::Merge { out, parts, force } => merge(&out, &parts, force),
         Command::Validate { path, format } => validate(&path, format),
         Command::Inspect { bundle, format } => inspect(&bundle, format),
+        Command::Diff(args) => diff::run(&args),
         Command::Export { bundle, asset, out, gltf, raw, channel } => match (out, gltf) {
             (_, Some(path)) => export_mesh(&bundle, &asset, &path),
             (Some(out), None) => export(&bundle, &asset, &out, raw, channel.as_deref()),

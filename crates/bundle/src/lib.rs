@@ -29,6 +29,7 @@
 pub mod bc;
 pub mod budget;
 mod bundle;
+pub mod diff;
 mod error;
 pub mod files;
 pub mod inspect;

@@ -42,6 +42,10 @@ pub struct Pipeline {
     /// commits nothing (exit 4), and the manifest records it for `hikage validate`.
     #[serde(default)]
     pub budget: hikage_bundle::Budget,
+    /// How far a rebake may move what a player sees before `hikage diff --pipeline` fails
+    /// (all 0 by default: any change of a decoded value).
+    #[serde(default)]
+    pub tolerances: hikage_bundle::diff::Tolerances,
     /// The jobs, baked in order.
     pub jobs: Vec<Job>,
 }
@@ -81,6 +85,7 @@ impl LoadedPipeline {
                 limits: InputLimits::default(),
                 cache: None,
                 budget: hikage_bundle::Budget::default(),
+                tolerances: hikage_bundle::diff::Tolerances::default(),
                 jobs: vec![job],
             },
             spans: Spans::default(),

@@ -1,0 +1,170 @@
+//! `hikage diff OLD NEW`: the tolerances from a pipeline and the flags, then
+//! `hikage_bundle::diff` and its report as a table or JSON.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Args;
+use hikage_bundle::Bundle;
+use hikage_bundle::diff::{Status, Tolerances, diff};
+
+use crate::{Failure, OutputFormat};
+
+/// The exit codes of `hikage diff`.
+pub const EXIT_CODES: &str = "\
+Exit codes:
+  0  every asset the same, or changed within tolerance
+  1  a change beyond tolerance, an asset added or removed, or one that cannot be compared (the
+     report says which); also an invalid bundle (the message says so)
+  2  usage error (unknown command or option, missing argument)
+  3  I/O error (a file or directory that cannot be read)";
+
+/// What `hikage diff` takes.
+#[derive(Args)]
+pub struct DiffArgs {
+    /// The bundle before (e.g. the last release's).
+    old: PathBuf,
+    /// The bundle after.
+    new: PathBuf,
+    /// Take the tolerances from this pipeline's `tolerances` (the flags override them).
+    #[arg(long, value_name = "PIPELINE")]
+    pipeline: Option<PathBuf>,
+    /// Largest change of a horizon angle, degrees.
+    #[arg(long, value_name = "DEGREES")]
+    horizon_degrees: Option<f32>,
+    /// Share (0–1) of the sun tests (2°, 5°, 10°, 20°, 30° at every azimuth and texel) that may
+    /// flip between lit and shadowed.
+    #[arg(long, value_name = "SHARE")]
+    sun_flips: Option<f32>,
+    /// Largest change of a horizon's distance, texels.
+    #[arg(long, value_name = "TEXELS")]
+    distance_texels: Option<f32>,
+    /// Largest change of a height, world units.
+    #[arg(long, value_name = "UNITS")]
+    height: Option<f32>,
+    /// Largest change of ambient occlusion (0–1).
+    #[arg(long, value_name = "AO")]
+    ao: Option<f32>,
+    /// Largest change of a relief depth, deeper or shallower, texels.
+    #[arg(long, value_name = "TEXELS")]
+    relief_texels: Option<f32>,
+    /// Largest relative change of a principal curvature.
+    #[arg(long, value_name = "SHARE")]
+    curvature: Option<f32>,
+    /// Largest move of a strand point or mesh vertex, world units.
+    #[arg(long, value_name = "UNITS")]
+    point_move: Option<f32>,
+    /// Largest change of any other value (max-mip pyramids, plain textures, mesh streams).
+    #[arg(long, value_name = "VALUE")]
+    value: Option<f32>,
+    /// List every asset, the unchanged ones too.
+    #[arg(long)]
+    all: bool,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = OutputFormat::Text)]
+    format: OutputFormat,
+}
+
+impl DiffArgs {
+    /// The pipeline's tolerances (or none) with each flag given put over them.
+    fn tolerances(&self) -> Result<Tolerances, Failure> {
+        let mut t = match &self.pipeline {
+            Some(path) => {
+                hikage_bake::pipeline::Pipeline::load(path)
+                    .with_context(|| format!("reading the tolerances of {}", path.display()))?
+                    .pipeline
+                    .tolerances
+            }
+            None => Tolerances::default(),
+        };
+        for (flag, field) in [
+            (self.horizon_degrees, &mut t.horizon_degrees),
+            (self.sun_flips, &mut t.sun_flips),
+            (self.distance_texels, &mut t.distance_texels),
+            (self.height, &mut t.height),
+            (self.ao, &mut t.ao),
+            (self.relief_texels, &mut t.relief_texels),
+            (self.curvature, &mut t.curvature),
+            (self.point_move, &mut t.point_move),
+            (self.value, &mut t.value),
+        ] {
+            if let Some(v) = flag {
+                if !(v >= 0.0 && v.is_finite()) {
+                    return Err(Failure {
+                        code: 2,
+                        error: anyhow::anyhow!("a tolerance is a finite number ≥ 0, not {v}"),
+                    });
+                }
+                *field = v;
+            }
+        }
+        Ok(t)
+    }
+}
+
+/// Compares the bundles and prints the report; a change beyond tolerance is exit 1.
+pub fn run(args: &DiffArgs) -> Result<(), Failure> {
+    let tolerances = args.tolerances()?;
+    let open = |p: &PathBuf| Bundle::open(p).with_context(|| format!("opening {}", p.display()));
+    let (old, new) = (open(&args.old)?, open(&args.new)?);
+    let report = diff(&old, &new, &tolerances)
+        .with_context(|| format!("comparing {} with {}", args.old.display(), args.new.display()))?;
+    let beyond: Vec<&str> = report.iter().filter(|d| d.beyond()).map(|d| d.id.as_str()).collect();
+    let changed = report.iter().filter(|d| d.status != Status::Same).count();
+    match args.format {
+        OutputFormat::Json => out!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "old": args.old,
+                "new": args.new,
+                "tolerances": tolerances,
+                "within_tolerance": beyond.is_empty(),
+                "assets": report.iter().filter(|d| args.all || d.status != Status::Same).map(|d| {
+                    serde_json::json!({
+                        "id": d.id,
+                        "kind": d.kind,
+                        "status": d.status,
+                        "beyond_tolerance": d.beyond(),
+                        "note": d.note,
+                        "measures": d.measures,
+                    })
+                }).collect::<Vec<_>>(),
+            }))?
+        ),
+        OutputFormat::Text => {
+            for d in report.iter().filter(|d| args.all || d.status != Status::Same) {
+                let verdict = if d.beyond() { "BEYOND" } else { "ok" };
+                out!("{verdict:<7}{:<9}{:<32}{:?}", format!("{:?}", d.status).to_lowercase(), d.id, d.kind);
+                if let Some(note) = &d.note {
+                    out!("         {note}");
+                }
+                for m in d.measures.iter().filter(|m| m.limit.is_none() || d.status != Status::Same) {
+                    let limit = m.limit.map_or(String::new(), |l| format!(" (tolerance {l})"));
+                    let at = m.at.as_ref().map_or(String::new(), |a| format!(" at {a}"));
+                    let flag = if m.beyond() { "  ← beyond" } else { "" };
+                    out!("         {:<30} {:>12} {}{limit}{at}{flag}", m.name, figure(m.value), m.unit);
+                }
+            }
+            out!(
+                "{} assets: {} changed, {} beyond tolerance{}",
+                report.len(),
+                changed,
+                beyond.len(),
+                if beyond.is_empty() { String::new() } else { format!(": {}", beyond.join(", ")) }
+            );
+        }
+    }
+    if beyond.is_empty() {
+        Ok(())
+    } else {
+        Err(Failure {
+            code: 1,
+            error: anyhow::anyhow!("{} asset(s) changed beyond tolerance: {}", beyond.len(), beyond.join(", ")),
+        })
+    }
+}
+
+/// A figure with as many digits as it needs: counts whole, others to 4 significant digits.
+fn figure(v: f64) -> String {
+    if v == v.trunc() && v.abs() < 1e12 { format!("{v}") } else { format!("{v:.4}") }
+}
