@@ -19,4 +19,5 @@ mod gpu_relief;
 mod gpu_stream;
 mod hostile;
 mod shard;
+mod sheet;
 mod tiles;

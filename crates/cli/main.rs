@@ -101,6 +101,20 @@ enum Command {
     /// tolerance, an asset is added or removed, or two cannot be compared.
     #[command(after_help = diff::EXIT_CODES)]
     Diff(diff::DiffArgs),
+    /// Write a contact sheet of BUNDLE into OUT: one HTML page with a picture of every asset,
+    /// rendered on the CPU; with --old, the assets changed since OLD shown old, new and their
+    /// difference.
+    #[command(after_help = EXIT_CODES)]
+    Sheet {
+        /// Bundle directory.
+        bundle: PathBuf,
+        /// The directory to write `index.html` and the PNGs into (created).
+        #[arg(long)]
+        out: PathBuf,
+        /// The bundle to compare with (e.g. the last release's).
+        #[arg(long)]
+        old: Option<PathBuf>,
+    },
     /// Bake horizon and distance maps of one heightfield into BUNDLE (created, or its assets
     /// `<id>.height`, `<id>.horizon`, `<id>.ao` added or replaced; with --tile, one of each per
     /// tile, `<id>.horizon.<tx>_<ty>`).
@@ -261,6 +275,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
         Command::Validate { path, format } => validate(&path, format),
         Command::Inspect { bundle, format } => inspect(&bundle, format),
         Command::Diff(args) => diff::run(&args),
+        Command::Sheet { bundle, out, old } => sheet(&bundle, &out, old.as_deref()),
         Command::Export { bundle, asset, out, gltf, raw, channel } => match (out, gltf) {
             (_, Some(path)) => export_mesh(&bundle, &asset, &path),
             (Some(out), None) => export(&bundle, &asset, &out, raw, channel.as_deref()),
@@ -448,6 +463,22 @@ fn inspect(dir: &Path, format: OutputFormat) -> Result<(), Failure> {
             );
         }
     }
+    Ok(())
+}
+
+fn sheet(dir: &Path, out: &Path, old: Option<&Path>) -> Result<(), Failure> {
+    let open = |p: &Path| Bundle::open(p).with_context(|| format!("opening {}", p.display()));
+    let bundle = open(dir)?;
+    let old = old.map(open).transpose()?;
+    let report = hikage_bake::sheet::write_sheet(&bundle, old.as_ref(), out)
+        .with_context(|| format!("writing the contact sheet of {} into {}", dir.display(), out.display()))?;
+    out!(
+        "{}: {} images, {:.2} MiB{}",
+        report.page.display(),
+        report.images,
+        report.bytes as f64 / 1048576.0,
+        if old.is_some() { format!(", {} assets changed", report.changed) } else { String::new() }
+    );
     Ok(())
 }
 

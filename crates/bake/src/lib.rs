@@ -42,6 +42,8 @@ pub mod pipeline;
 pub mod relief;
 pub mod run;
 pub mod shard;
+#[cfg(feature = "png")]
+pub mod sheet;
 pub mod strands;
 
 pub use compression::Compression;
