@@ -200,7 +200,7 @@ pub(crate) struct TileAssets<'w> {
 
 /// Streams every [`StreamedTerrain`]: (re)builds its layout when its bundle (re)loads or the
 /// component changes, then chooses, requests, adds, evicts and shows tiles for the camera.
-#[allow(clippy::too_many_arguments)]
+#[expect(clippy::too_many_arguments, reason = "a Bevy system takes what it reads as arguments")]
 pub(crate) fn stream_terrain(
     mut commands: Commands,
     server: Res<AssetServer>,
@@ -499,7 +499,7 @@ fn make_room(
 }
 
 /// Adds tile `key` as a hidden child of `parent`: its mesh, its images and its material.
-#[allow(clippy::too_many_arguments)]
+#[expect(clippy::too_many_arguments, reason = "the tile, its terrain's parts and where it goes")]
 fn add_tile(
     commands: &mut Commands,
     assets: &mut TileAssets,

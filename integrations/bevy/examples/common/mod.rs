@@ -64,6 +64,11 @@ pub fn run(name: &str, build: impl FnOnce(&mut App)) {
         eprintln!("{name}: no bundle at {}: bake it first (`cargo run --release -- bake` there)", root.display());
         std::process::exit(1);
     }
+    run_in(name, &root, build);
+}
+
+/// [`run`] with the assets under `root` (its bundle at `root/bundle/bundle.ron`).
+pub fn run_in(name: &str, root: &Path, build: impl FnOnce(&mut App)) {
     if std::env::var_os("DISPLAY").is_some() || std::env::var_os("WAYLAND_DISPLAY").is_some() {
         let mut app = App::new();
         app.add_plugins((
@@ -78,7 +83,7 @@ pub fn run(name: &str, build: impl FnOnce(&mut App)) {
         || Path::new(env!("CARGO_MANIFEST_DIR")).join("target").join(format!("{name}.png")),
         PathBuf::from,
     );
-    let mut app = Headless::new(&root, |app| {
+    let mut app = Headless::new(root, |app| {
         app.add_plugins(hikage_bevy::HikagePlugin);
         build(app);
     });
@@ -91,11 +96,31 @@ pub fn run(name: &str, build: impl FnOnce(&mut App)) {
     });
     let built = app.update_until(600, |world| pending(world) == 0);
     assert!(built, "{name}: the scene's assets did not load");
+    settle(&mut app);
     app.update_until(3, |_| false);
     let pixels = app.capture_bytes(&target);
     let bytes: Vec<u8> = pixels.iter().flat_map(|p| [p[0], p[1], p[2]]).collect();
     image::save_buffer(&out, &bytes, width, height, image::ColorType::Rgb8).unwrap();
     println!("{name}: no display; rendered headless to {}", out.display());
+}
+
+/// Frames until every streamed terrain draws all the tiles its camera wants, or holds as many
+/// as its budget allows (a second without a tile added).
+fn settle(app: &mut Headless) {
+    let mut idle = 0;
+    for _ in 0..3000 {
+        app.update();
+        let mut streams = app.world().query::<&hikage_bevy::TerrainStreamStats>();
+        let stats: Vec<_> = streams.iter(app.world()).map(|s| s.0).collect();
+        if stats.iter().all(|s| s.missing == 0) {
+            return;
+        }
+        idle = if stats.iter().any(|s| s.uploaded_bytes > 0) { 0 } else { idle + 1 };
+        if idle >= 100 {
+            return;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
 }
 
 /// hikage components whose bundle has not given them a material (or an error) yet.
@@ -108,8 +133,15 @@ fn pending(world: &mut World) -> usize {
     let server = world.resource::<AssetServer>().clone();
     let hairs =
         world.query::<&HairStrands>().iter(world).filter(|h| !server.is_loaded_with_dependencies(&h.bundle)).count();
+    // A streamed terrain waits for its coarsest tiles here, and in `settle` for the rest.
+    let streams = world
+        .query_filtered::<&TerrainStreamStats, Without<HikageError>>()
+        .iter(world)
+        .filter(|s| s.0.drawn == 0)
+        .count();
     receivers
         + hairs
+        + streams
         + world
             .query_filtered::<(), (
                 Or<(With<HorizonTerrain>, With<ReliefSurface>, With<CurvedSurface>)>,
