@@ -11,7 +11,7 @@ use hikage_runtime::glam::camera::rh::proj::directx;
 use hikage_runtime::glam::camera::rh::view::look_at_mat4;
 use hikage_runtime::horizon::{StreamOptions, Sun, TerrainFrame, TerrainShadows, TerrainStream};
 use hikage_runtime::{CpuBundle, DrawOptions, GpuBundle, wgpu};
-use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT, Headless};
+use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT, Headless, VISIBILITY_FORMAT};
 
 const TEXEL: f32 = 30.0;
 const FRAMES: usize = 24;
@@ -52,7 +52,11 @@ fn row(g: &Headless, n: u32) {
     std::fs::write(dir.join("pipeline.ron"), text).expect("the pipeline");
     hikage_bake::run::run_pipeline(&dir.join("pipeline.ron"), &Default::default()).expect("the terrain bakes");
     let bundle = dir.join("bundle");
-    let options = DrawOptions { depth_format: Some(DEPTH_FORMAT), ..DrawOptions::new(COLOR_FORMAT) };
+    let options = DrawOptions {
+        depth_format: Some(DEPTH_FORMAT),
+        visibility_format: Some(VISIBILITY_FORMAT),
+        ..DrawOptions::new(COLOR_FORMAT)
+    };
     let side = n as f32 * TEXEL;
     let sun = Sun { direction: Vec3::new(-0.8, 0.1, 0.6).normalize(), ..Sun::default() };
     let frame_at = |i: usize| {
