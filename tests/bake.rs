@@ -75,7 +75,11 @@ fn default_pipeline_bakes_validates_and_inspects() {
     let pyramid: u64 = (0..9).map(|k| (256u64 >> k).pow(2) * 2).sum();
     assert_eq!(find("relief_fbm.maxmip")["gpu_bytes"], pyramid);
     let sum = |key: &str| assets.iter().map(|a| a[key].as_u64().unwrap()).sum::<u64>();
-    assert_eq!(json["disk_bytes"], sum("byte_length"));
+    // On disk a file shared by identical payloads counts once.
+    let files: std::collections::BTreeMap<&str, u64> =
+        assets.iter().map(|a| (a["file"].as_str().unwrap(), a["byte_length"].as_u64().unwrap())).collect();
+    assert!(files.len() < assets.len(), "head.strips and head_auto.strips share a file");
+    assert_eq!(json["disk_bytes"], files.values().sum::<u64>());
     assert_eq!(json["gpu_bytes"], sum("gpu_bytes"));
 
     // `validate PIPELINE` checks without baking.
@@ -150,9 +154,13 @@ fn changed_input_rebakes_one_job_and_removes_its_stale_payloads_once_no_reader_h
     let old = |snap: &std::collections::BTreeMap<String, Vec<u8>>| -> Vec<String> {
         snap.keys().filter(|k| k.starts_with("relief_fbm.")).cloned().collect()
     };
+    // New heights for relief_fbm: the image mirrored (a copy of another job's image would
+    // bake payloads that job already stores, which the bundle then stores once).
+    let source = image::open(dir.path("data/relief_fbm.png")).unwrap();
+    let rewrite = |img: image::DynamicImage| img.save(dir.path("data/relief_fbm.png")).unwrap();
     // Replace relief_fbm.png by another valid grayscale PNG: with no reader, the replaced
     // payloads go in the same commit (the bundle holds one generation, not two).
-    std::fs::copy(dir.path("data/relief_bricks.png"), dir.path("data/relief_fbm.png")).unwrap();
+    rewrite(source.fliph());
     let out = dir.run(&["bake"]);
     assert!(stdout(&out).contains("baked 1,") && stdout(&out).contains("removed 2"), "{}", stdout(&out));
     let after = dir.bundle_files("bundle");
@@ -163,7 +171,7 @@ fn changed_input_rebakes_one_job_and_removes_its_stale_payloads_once_no_reader_h
     // A reader holding the bundle (a game that opened it) keeps the payloads it may still
     // read until the next commit after it lets go.
     let reader = hikage_bundle::Bundle::open(&dir.path("bundle")).unwrap();
-    std::fs::copy(dir.path("data/relief_spikes.png"), dir.path("data/relief_fbm.png")).unwrap();
+    rewrite(source.flipv());
     let out = dir.run(&["bake"]);
     assert!(stdout(&out).contains("baked 1,") && !stdout(&out).contains("removed"), "{}", stdout(&out));
     for asset in &reader.manifest().assets {
@@ -173,6 +181,49 @@ fn changed_input_rebakes_one_job_and_removes_its_stale_payloads_once_no_reader_h
     let out = dir.run(&["bake"]);
     assert!(stdout(&out).contains("baked 0,") && stdout(&out).contains("removed 2"), "{}", stdout(&out));
     assert_eq!(dir.bundle_files("bundle").len(), before.len());
+    dir.run(&["validate", "bundle"]);
+}
+
+/// `head.strips` and `head_auto.strips` are the same bytes (their jobs differ only in the
+/// opacity set, which the settings hold): the bundle stores them once, in a file named after the
+/// first id, counts it once on disk, and validates. When one changes, the other gets its own
+/// file again (copied from the shared one) and the shared file goes.
+#[test]
+fn identical_payloads_are_stored_once_until_one_changes() {
+    let dir = Dir::with_default_bundle("shared_payloads");
+    let manifest = || hikage_bundle::Bundle::open(&dir.path("bundle")).unwrap().manifest().clone();
+    let file = |m: &hikage_bundle::Manifest, id: &str| m.assets.iter().find(|a| a.id == id).unwrap().file.clone();
+    let before = manifest();
+    let shared = file(&before, "head.strips");
+    assert!(shared.starts_with("head.strips."), "{shared}");
+    assert_eq!(file(&before, "head_auto.strips"), shared);
+    let on_disk: u64 = dir
+        .bundle_files("bundle")
+        .iter()
+        .filter(|(k, _)| k.ends_with(".ktx2") || k.ends_with(".bin"))
+        .map(|(_, v)| v.len() as u64)
+        .sum();
+    let json: serde_json::Value =
+        serde_json::from_slice(&dir.run(&["inspect", "bundle", "--format", "json"]).stdout).unwrap();
+    assert_eq!(json["disk_bytes"].as_u64().unwrap(), on_disk, "a shared file is counted once");
+    let bytes = dir.read(&format!("bundle/{shared}"));
+
+    // A colour for `head` changes its records; `head_auto` is not baked again. (Stored twice,
+    // the strips take the bundle over its disk budget: that budget is left out.)
+    let pipeline = String::from_utf8(dir.read("pipeline.ron")).unwrap();
+    let pipeline: String =
+        pipeline.lines().filter(|l| !l.trim_start().starts_with("budget:")).map(|l| format!("{l}\n")).collect();
+    let from = r#"Strands(id: "head", input: "data/head.hair", ribbons: true)"#;
+    assert!(pipeline.contains(from));
+    let to = r#"Strands(id: "head", input: "data/head.hair", ribbons: true, color: (0.5, 0.4, 0.3))"#;
+    dir.write("pipeline.ron", pipeline.replace(from, to));
+    let out = dir.run(&["bake"]);
+    assert!(stdout(&out).contains("baked 1,"), "{}", stdout(&out));
+    let after = manifest();
+    let (own, head) = (file(&after, "head_auto.strips"), file(&after, "head.strips"));
+    assert!(own.starts_with("head_auto.strips.") && head.starts_with("head.strips.") && head != shared, "{own} {head}");
+    assert_eq!(dir.read(&format!("bundle/{own}")), bytes);
+    assert!(!dir.path(&format!("bundle/{shared}")).exists(), "the shared file is no longer named and goes");
     dir.run(&["validate", "bundle"]);
 }
 
@@ -419,23 +470,52 @@ fn ribbons_export_as_valid_gltf() {
     for name in ["POSITION", "NORMAL", "TANGENT", "TEXCOORD_0", "COLOR_0", "_STRAND_ID"] {
         assert!(attrs[name].is_u64(), "{name} missing: {attrs}");
     }
+    // 8-bit normals and tangents are beyond core glTF: the file says it needs the extension.
+    for key in ["extensionsUsed", "extensionsRequired"] {
+        assert_eq!(doc[key], serde_json::json!(["KHR_mesh_quantization"]), "{key}");
+    }
     let bundle = hikage_bundle::Bundle::open(&dir.path("b")).unwrap();
     let mesh = bundle.read_mesh("head.ribbons").unwrap();
-    for (gltf, stream, width) in [("POSITION", "position", 3), ("TANGENT", "tangent", 4), ("COLOR_0", "color", 4)] {
+    // Each attribute: glTF's component type (BYTE 5120, UNSIGNED_SHORT 5123, FLOAT 5126),
+    // `normalized` for the integers, elements 4-byte aligned, and the stored bytes.
+    for (gltf, stream, code, size, components) in [
+        ("POSITION", "position", 5126, 4, 3),
+        ("NORMAL", "normal", 5120, 1, 3),
+        ("TANGENT", "tangent", 5120, 1, 4),
+        ("TEXCOORD_0", "uv", 5123, 2, 2),
+        ("COLOR_0", "color", 5123, 2, 4),
+        ("_STRAND_ID", "strand_id", 5126, 4, 1),
+    ] {
         let acc = &doc["accessors"][attrs[gltf].as_u64().unwrap() as usize];
+        assert_eq!(acc["componentType"], code, "{gltf}");
+        assert_eq!(acc["normalized"].as_bool().unwrap_or(false), code != 5126, "{gltf}");
         let view = &doc["bufferViews"][acc["bufferView"].as_u64().unwrap() as usize];
         let (off, len) = (view["byteOffset"].as_u64().unwrap() as usize, view["byteLength"].as_u64().unwrap() as usize);
-        assert_eq!(acc["count"].as_u64().unwrap() as usize * 4 * width, len);
-        let values: Vec<f32> =
-            bin[off..off + len].chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
-        assert_eq!(values, mesh.read_f32(stream).unwrap(), "{gltf}");
+        let element = size * components;
+        let stride = view["byteStride"].as_u64().map_or(element, |s| s as usize);
+        assert!(
+            stride.is_multiple_of(4) && stride >= element && off.is_multiple_of(4),
+            "{gltf}: stride {stride}, offset {off}"
+        );
+        let count = acc["count"].as_u64().unwrap() as usize;
+        assert_eq!(count, 440_000);
+        let a = mesh.desc.attribute(stream).unwrap();
+        let stored: Vec<&[u8]> = mesh.elements(a).collect();
+        for (i, e) in stored.iter().enumerate().step_by(997) {
+            assert_eq!(&bin[off + i * stride..off + i * stride + element], *e, "{gltf} element {i}");
+        }
+        assert!(off + (count - 1) * stride + element <= len + off);
         if gltf == "POSITION" {
+            let values = mesh.read_f32("position").unwrap();
             let min: Vec<f32> =
                 (0..3).map(|k| values.iter().skip(k).step_by(3).fold(f32::INFINITY, |m, &v| m.min(v))).collect();
             let got: Vec<f32> = acc["min"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap() as f32).collect();
             assert_eq!(got, min);
         }
     }
+    // 36 bytes a vertex (68 in floats): the quantized streams, as KHR_mesh_quantization has them.
+    let per_vertex: usize = mesh.desc.attributes.iter().map(|a| a.stride as usize).sum();
+    assert_eq!(per_vertex, 36);
     dir.run(&["export", "b", "head.strips", "--gltf", "strips.glb"]);
     assert!(dir.read("strips.glb") == glb, "the strips export as their ribbons");
     if let Ok(script) = std::env::var("HIKAGE_GLTF_VALIDATOR") {
@@ -531,7 +611,7 @@ fn compression_levels_keep_the_data_and_shrink_the_files() {
     dir.write("bricks.png", std::fs::read("data/relief_bricks.png").unwrap());
     let mut sizes = Vec::new();
     let mut read = Vec::new();
-    for level in ["0", "1", "19"] {
+    for level in ["0", "1", "19", "auto"] {
         let out = format!("b{level}");
         dir.run(&["strands", "head.hair", "--out", &out, "--zstd", level]);
         dir.run(&["relief", "bricks.png", "--out", &out, "--zstd", level]);
@@ -556,7 +636,7 @@ fn compression_levels_keep_the_data_and_shrink_the_files() {
             }
         }
     }
-    assert!(sizes[1] < sizes[0] * 6 / 10 && sizes[2] < sizes[0] * 6 / 10, "bytes raw, zstd 1, zstd 19: {sizes:?}");
+    assert!(sizes[1..].iter().all(|&s| s < sizes[0] * 6 / 10), "bytes raw, zstd 1, zstd 19, auto: {sizes:?}");
     let out = dir.run_expecting(&["strands", "head.hair", "--out", "x", "--zstd", "23"], 2);
     assert!(stderr(&out).contains("outside 1–22"), "{}", stderr(&out));
 

@@ -75,6 +75,12 @@ fn main() {
         scale::bake_child(std::path::Path::new(pipeline));
         return;
     }
+    if let [flag, input, out, zstd] = args.as_slice()
+        && flag == "--one-shot-child"
+    {
+        size::one_shot_child(std::path::Path::new(input), std::path::Path::new(out), zstd);
+        return;
+    }
     if let [flag, scratch, md] = args.as_slice()
         && flag == "--bake-whole-child"
     {

@@ -22,7 +22,7 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime};
 
-use hikage_bundle::{Asset, Limits, Manifest, payload_file_name};
+use hikage_bundle::{Asset, Limits, Manifest, is_payload_file_of};
 
 use crate::error::BakeError;
 
@@ -122,7 +122,7 @@ impl Cache {
             .into_iter()
             .map(|a| {
                 let ext = if a.payload.mesh().is_some() { "bin" } else { "ktx2" };
-                if a.input_hash != hash || a.file != payload_file_name(&a.id, &a.blake3, ext) {
+                if a.input_hash != hash || !is_payload_file_of(&a.file, &a.blake3, ext) {
                     return None;
                 }
                 let path = dir.join(&a.file);
@@ -140,8 +140,15 @@ impl Cache {
     }
 
     /// Stores `assets` (baked from input hash `hash`), their payloads copied from the bundle
-    /// directory `bundle`, unless an entry is already there.
-    pub fn put(&self, hash: &str, assets: &[Asset], bundle: &Path) -> Result<(), BakeError> {
+    /// directory `bundle` (from the file `shared` names for an asset whose identical payload
+    /// the bundle stores under another asset's name), unless an entry is already there.
+    pub fn put(
+        &self,
+        hash: &str,
+        assets: &[Asset],
+        bundle: &Path,
+        shared: &std::collections::BTreeMap<String, String>,
+    ) -> Result<(), BakeError> {
         let Some(dir) = self.entry_dir(hash) else { return Ok(()) };
         if std::fs::symlink_metadata(dir.join(ENTRY_FILE)).is_ok() {
             return Ok(());
@@ -150,7 +157,7 @@ impl Cache {
         std::fs::create_dir_all(&tmp).map_err(|e| BakeError::io(&tmp, e))?;
         let written = (|| {
             for a in assets {
-                let (from, to) = (bundle.join(&a.file), tmp.join(&a.file));
+                let (from, to) = (bundle.join(shared.get(&a.id).unwrap_or(&a.file)), tmp.join(&a.file));
                 std::fs::copy(&from, &to).map_err(|e| BakeError::io(&from, e))?;
             }
             let text = ron::ser::to_string_pretty(assets, ron::ser::PrettyConfig::default())

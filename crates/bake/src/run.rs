@@ -168,7 +168,7 @@ fn run_jobs(loaded: &LoadedPipeline, options: &RunOptions, mode: WriteMode) -> R
     // The cache is an optimisation: once the bundle is committed, nothing it does fails the bake.
     if let Some(cache) = &cache {
         for (hash, assets) in &baked {
-            if let Err(e) = cache.put(hash, assets, &out) {
+            if let Err(e) = cache.put(hash, assets, &out, &summary.shared) {
                 options.observer.warning(&format!("could not store in the cache: {e}"));
             }
         }
@@ -267,8 +267,14 @@ fn run_job(
     let progress = |done: u64, all: u64| options.observer.progress(&id, done, all);
     let ctx = loaded.context(run.index, &progress);
     let mut made = Vec::new();
-    let zstd = |data: &[u8]| compression.compress(data);
     for mut asset in job.bake(&ctx)? {
+        let payload = match &asset.payload {
+            PayloadData::Texture(t) => hikage_bundle::Payload::Texture(t.desc.clone()),
+            PayloadData::Mesh(m) => hikage_bundle::Payload::Mesh(m.desc.clone()),
+        };
+        let level = compression.level_for(asset.settings.kind(&payload));
+        let zstd =
+            |data: &[u8]| level.map_or_else(|| data.to_vec(), |level| crate::compression::zstd_frame(data, level));
         made.push(
             match &mut asset.payload {
                 PayloadData::Texture(t) => {

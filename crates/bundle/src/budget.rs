@@ -106,7 +106,11 @@ impl Budget {
             let on_gpu: fn(&AssetSummary) -> u64 = |a| a.gpu_bytes;
             for (figure, budget, bytes) in [(Figure::Disk, limit.disk, on_disk), (Figure::Gpu, limit.gpu, on_gpu)] {
                 let Some(budget) = budget else { continue };
-                let total = assets.iter().map(|a| bytes(a)).fold(0u64, u64::saturating_add);
+                // A file shared by identical payloads is on disk once; each asset is uploaded.
+                let total = match figure {
+                    Figure::Disk => crate::inspect::disk_bytes(assets.iter().copied()),
+                    Figure::Gpu => assets.iter().map(|a| bytes(a)).fold(0u64, u64::saturating_add),
+                };
                 if total > budget {
                     let largest = assets.iter().max_by_key(|a| bytes(a)).map(|a| (a.id.clone(), bytes(a)));
                     out.push(Overrun { scope: scope.clone(), figure, bytes: total, budget, largest });

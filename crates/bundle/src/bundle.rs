@@ -235,15 +235,23 @@ pub fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(String, S
     // manifest lists tens of thousands of assets; the checks of each asset alone then run on
     // every core.
     let mut ids = std::collections::HashSet::with_capacity(manifest.assets.len());
-    let mut files = std::collections::HashSet::with_capacity(manifest.assets.len());
-    let repeats: Vec<(bool, bool)> =
-        manifest.assets.iter().map(|a| (!ids.insert(a.id.as_str()), !files.insert(a.file.as_str()))).collect();
+    // Assets with identical payloads may share a file (format 1.10); other bytes may not.
+    let mut files = std::collections::HashMap::with_capacity(manifest.assets.len());
+    let repeats: Vec<(bool, bool)> = manifest
+        .assets
+        .iter()
+        .map(|a| {
+            let contents = (a.blake3.as_str(), a.byte_length);
+            let clash = *files.entry(a.file.as_str()).or_insert(contents) != contents;
+            (!ids.insert(a.id.as_str()), clash)
+        })
+        .collect();
     let per_asset = crate::parallel::map(&manifest.assets, |i, a| asset_problems(manifest, i, a, repeats[i], limits));
     per_asset.into_iter().flatten().collect()
 }
 
 /// What is wrong with asset `i` of `manifest`, `a`, given whether its id and its file repeat an
-/// earlier asset's.
+/// earlier asset's (a file with other contents, for files).
 fn asset_problems(
     manifest: &Manifest,
     i: usize,
@@ -266,7 +274,7 @@ fn asset_problems(
                 a.file
             ));
         } else if repeated_file {
-            bad(format!("file {:?} is used by two assets", a.file));
+            bad(format!("file {:?} is used by two assets with different payloads (BLAKE3 and length)", a.file));
         }
         if a.blake3.len() != 64 || !a.blake3.bytes().all(|b| b.is_ascii_hexdigit()) {
             bad(format!("blake3 {:?} is not 64 hex digits", a.blake3));

@@ -343,16 +343,8 @@ fn mesh_change(
                     largest(ka.iter().zip(&kb).map(|(p, q)| ((p - q).abs() / p.abs().max(q.abs()).max(1e-6)) as f64));
                 out.push(held("curvature relative max".into(), (m, at / per), "", tol.curvature));
             }
-            (ComponentType::F32 | ComponentType::U8 | ComponentType::U16, name) if !matches!(name, "strand") => {
-                let decode = |e: &[u8], k: usize| -> f64 {
-                    match b.component {
-                        ComponentType::F32 => {
-                            f32::from_le_bytes(e[4 * k..4 * k + 4].try_into().expect("4 bytes")) as f64
-                        }
-                        ComponentType::U16 => u16::from_le_bytes([e[2 * k], e[2 * k + 1]]) as f64 / 65535.0,
-                        _ => e[k] as f64 / 255.0,
-                    }
-                };
+            (c, name) if c != ComponentType::U32 && !matches!(name, "strand") => {
+                let decode = |e: &[u8], k: usize| -> f64 { c.normalized(e, k) as f64 };
                 let changes = ma
                     .elements(a)
                     .zip(mb.elements(b))

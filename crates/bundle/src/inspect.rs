@@ -83,6 +83,12 @@ fn strand_sets(s: &StrandsSettings, points: u64) -> Vec<StrandSet> {
         .collect()
 }
 
+/// Bytes on disk of `assets`' payloads, a file shared by identical payloads counted once.
+pub fn disk_bytes<'a>(assets: impl Iterator<Item = &'a AssetSummary>) -> u64 {
+    let files: std::collections::BTreeMap<&str, u64> = assets.map(|a| (a.file.as_str(), a.byte_length)).collect();
+    files.values().fold(0u64, |sum, &b| sum.saturating_add(b))
+}
+
 /// Summarises a manifest.
 pub fn summarize(manifest: &Manifest) -> Summary {
     let assets: Vec<AssetSummary> = manifest
@@ -141,7 +147,7 @@ pub fn summarize(manifest: &Manifest) -> Summary {
     Summary {
         format: manifest.format.to_string(),
         generator: manifest.generator.clone(),
-        disk_bytes: assets.iter().map(|a| a.byte_length).sum(),
+        disk_bytes: disk_bytes(assets.iter()),
         gpu_bytes: assets.iter().map(|a| a.gpu_bytes).sum(),
         assets,
     }

@@ -58,7 +58,7 @@ pub use manifest::{
     STRANDS_STREAMS, Settings, StrandsSettings, Stream, TilePlacement,
 };
 pub use mesh::{Accessor, ComponentType, MeshData, MeshDesc};
-pub use names::{check_asset_id, is_valid_asset_id, payload_file_name};
+pub use names::{check_asset_id, is_payload_file_of, is_valid_asset_id, payload_file_name};
 pub use strands::{StrandPoint, read_strand_points, strands_desc};
 pub use texture::{Supercompression, TextureData, TextureDesc, TextureDimension, TextureFormat};
 

@@ -8,6 +8,11 @@ use crate::error::BundleError;
 use crate::texture::Supercompression;
 
 /// Scalar type of an accessor's components.
+///
+/// In vertex streams the 8- and 16-bit types are normalized as glTF's `normalized` accessors
+/// are: `U8`/`U16` to 0–1 (c / 255, c / 65535), `I8`/`I16` to −1–1 (max(c / 127, −1),
+/// max(c / 32767, −1)), unless a kind's stream says it holds integers (a strand record's
+/// `strand`). [`MeshData::read_normalized`] gives any stream as floats.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum ComponentType {
     /// Unsigned 8-bit integer.
@@ -18,16 +23,46 @@ pub enum ComponentType {
     U32,
     /// 32-bit IEEE float.
     F32,
+    /// Signed 8-bit integer, normalized to −1–1 in vertex streams (since format 1.10).
+    I8,
+    /// Signed 16-bit integer, normalized to −1–1 in vertex streams (since format 1.10).
+    I16,
 }
 
 impl ComponentType {
     /// Size of one component in bytes.
     pub fn bytes(self) -> usize {
         match self {
-            ComponentType::U8 => 1,
-            ComponentType::U16 => 2,
+            ComponentType::U8 | ComponentType::I8 => 1,
+            ComponentType::U16 | ComponentType::I16 => 2,
             ComponentType::U32 | ComponentType::F32 => 4,
         }
+    }
+
+    /// Component `k` of element `e` as glTF dequantizes it: floats as they are, 8- and 16-bit
+    /// integers normalized (see the type's docs), `U32` as its value.
+    pub fn normalized(self, e: &[u8], k: usize) -> f32 {
+        match self {
+            ComponentType::F32 => f32::from_le_bytes([e[4 * k], e[4 * k + 1], e[4 * k + 2], e[4 * k + 3]]),
+            ComponentType::U32 => u32::from_le_bytes([e[4 * k], e[4 * k + 1], e[4 * k + 2], e[4 * k + 3]]) as f32,
+            ComponentType::U16 => u16::from_le_bytes([e[2 * k], e[2 * k + 1]]) as f32 / 65535.0,
+            ComponentType::U8 => e[k] as f32 / 255.0,
+            ComponentType::I16 => (i16::from_le_bytes([e[2 * k], e[2 * k + 1]]) as f32 / 32767.0).max(-1.0),
+            ComponentType::I8 => (e[k] as i8 as f32 / 127.0).max(-1.0),
+        }
+    }
+
+    /// `v` quantized to this 8- or 16-bit type, normalized (clamped to the type's range, rounded
+    /// to the nearest step) as little-endian bytes; `None` for `U32` and `F32`.
+    fn quantize(self, v: f32) -> Option<Vec<u8>> {
+        let v = if v.is_nan() { 0.0 } else { v };
+        Some(match self {
+            ComponentType::U8 => vec![(v.clamp(0.0, 1.0) * 255.0).round() as u8],
+            ComponentType::U16 => ((v.clamp(0.0, 1.0) * 65535.0).round() as u16).to_le_bytes().to_vec(),
+            ComponentType::I8 => vec![(v.clamp(-1.0, 1.0) * 127.0).round() as i8 as u8],
+            ComponentType::I16 => ((v.clamp(-1.0, 1.0) * 32767.0).round() as i16).to_le_bytes().to_vec(),
+            ComponentType::U32 | ComponentType::F32 => return None,
+        })
     }
 }
 
@@ -204,6 +239,42 @@ impl MeshData {
         Ok(())
     }
 
+    /// Appends an attribute of `components` per vertex quantized to `component` (`U8`, `U16`,
+    /// `I8` or `I16`, normalized as glTF's `normalized` accessors and KHR_mesh_quantization
+    /// have them), each element padded to a multiple of 4 bytes as glTF wants vertex elements
+    /// aligned.
+    pub fn push_normalized(
+        &mut self,
+        name: &str,
+        component: ComponentType,
+        components: u8,
+        values: &[f32],
+    ) -> Result<(), BundleError> {
+        let expected = self.desc.vertex_count as usize * components as usize;
+        if values.len() != expected || !(1..=4).contains(&components) {
+            return Err(BundleError::InvalidData(format!(
+                "attribute `{name}`: expected {expected} values of 1 to 4 components, found {} of {components}",
+                values.len()
+            )));
+        }
+        let element = component.bytes() * components as usize;
+        let stride = element.div_ceil(4) * 4;
+        let mut data = Vec::with_capacity(stride * self.desc.vertex_count as usize);
+        for v in values.chunks_exact(components as usize) {
+            for &x in v {
+                let bytes = component.quantize(x).ok_or_else(|| {
+                    BundleError::InvalidData(format!("attribute `{name}`: {component:?} is not a normalized type"))
+                })?;
+                data.extend_from_slice(&bytes);
+            }
+            data.resize(data.len() + stride - element, 0);
+        }
+        let mut a = self.push_stream(name, component, components, self.desc.vertex_count, &data);
+        a.stride = stride as u32;
+        self.desc.attributes.push(a);
+        Ok(())
+    }
+
     /// Sets the triangle-list index stream (U32).
     pub fn set_indices(&mut self, indices: &[u32]) -> Result<(), BundleError> {
         if let Some(&bad) = indices.iter().find(|&&i| i >= self.desc.vertex_count) {
@@ -227,6 +298,17 @@ impl MeshData {
         Some(
             read_elements(&self.bytes, a)
                 .flat_map(|e| e.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect::<Vec<_>>())
+                .collect(),
+        )
+    }
+
+    /// Reads attribute `name` as floats of any component type, `components` per vertex:
+    /// 8- and 16-bit streams normalized ([`ComponentType::normalized`]).
+    pub fn read_normalized(&self, name: &str) -> Option<Vec<f32>> {
+        let a = self.desc.attribute(name)?;
+        Some(
+            read_elements(&self.bytes, a)
+                .flat_map(|e| (0..a.components as usize).map(move |k| a.component.normalized(e, k)))
                 .collect(),
         )
     }
@@ -255,9 +337,9 @@ pub(crate) fn read_elements<'a>(bytes: &'a [u8], a: &'a Accessor) -> impl Iterat
 
 pub(crate) fn read_uint(e: &[u8], c: ComponentType) -> u32 {
     match c {
-        ComponentType::U8 => e[0] as u32,
-        ComponentType::U16 => u16::from_le_bytes([e[0], e[1]]) as u32,
-        _ => u32::from_le_bytes([e[0], e[1], e[2], e[3]]),
+        ComponentType::U8 | ComponentType::I8 => e[0] as u32,
+        ComponentType::U16 | ComponentType::I16 => u16::from_le_bytes([e[0], e[1]]) as u32,
+        ComponentType::U32 | ComponentType::F32 => u32::from_le_bytes([e[0], e[1], e[2], e[3]]),
     }
 }
 
@@ -278,5 +360,41 @@ mod tests {
         assert_eq!(&m.bytes[12..16], &[0x00, 0x00, 0x80, 0x3F]);
         assert!(m.set_indices(&[0, 1, 3]).is_err());
         assert!(m.desc.check(10).is_err());
+    }
+
+    /// Normalized streams: glTF's dequantization of each type gives the values back within half
+    /// a step, out-of-range values clamp, three 8-bit components are padded to a 4-byte stride,
+    /// and the bytes are the ones the glTF specification's formulas give.
+    #[test]
+    fn normalized_streams_quantize_as_gltf_dequantizes() {
+        let values = [-1.5f32, -0.3, 0.0, 0.71, 1.0, 2.0];
+        let mut m = MeshData::new(2);
+        m.push_f32("position", 1, &[0.0, 1.0]).unwrap();
+        m.push_normalized("n", ComponentType::I8, 3, &values).unwrap();
+        m.push_normalized("t", ComponentType::I16, 3, &values).unwrap();
+        m.push_normalized("c", ComponentType::U16, 3, &values).unwrap();
+        m.push_normalized("u", ComponentType::U8, 3, &values).unwrap();
+        m.desc.check(m.bytes.len() as u64).unwrap();
+        let n = m.desc.attribute("n").unwrap();
+        assert_eq!((n.stride, n.offset % 4), (4, 0));
+        // -1.5 clamps to -127, -0.3 → round(-38.1) = -38, 0.71 → round(90.17) = 90.
+        assert_eq!(m.elements(n).next().unwrap(), &[(-127i8) as u8, (-38i8) as u8, 0]);
+        assert_eq!(m.elements(n).nth(1).unwrap(), &[90, 127, 127]);
+        for (name, step, signed) in [
+            ("n", 1.0 / 127.0, true),
+            ("t", 1.0 / 32767.0, true),
+            ("c", 1.0 / 65535.0, false),
+            ("u", 1.0 / 255.0, false),
+        ] {
+            let back = m.read_normalized(name).unwrap();
+            for (v, b) in values.iter().zip(&back) {
+                let want = v.clamp(if signed { -1.0 } else { 0.0 }, 1.0);
+                assert!((want - b).abs() <= step / 2.0 + 1e-7, "{name}: {v} read back as {b}");
+            }
+        }
+        // glTF: the most negative value also means -1.
+        assert_eq!(ComponentType::I8.normalized(&[0x80], 0), -1.0);
+        assert_eq!(m.read_normalized("position").unwrap(), vec![0.0, 1.0]);
+        assert!(m.push_normalized("bad", ComponentType::F32, 1, &[0.0, 0.0]).is_err());
     }
 }

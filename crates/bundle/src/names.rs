@@ -34,6 +34,18 @@ pub fn payload_file_name(id: &str, blake3_hex: &str, ext: &str) -> String {
     format!("{id}.{}.{ext}", &blake3_hex[..16.min(blake3_hex.len())])
 }
 
+/// True when `file` is a content-derived payload name of these bytes: `<id>.<16 hex digits of
+/// blake3_hex>.<ext>` for any valid id. An asset's own payload is named after its own id; since
+/// format 1.10 assets with identical payloads share one file, named after the first of their ids.
+pub fn is_payload_file_of(file: &str, blake3_hex: &str, ext: &str) -> bool {
+    let Some(stem) = file.strip_suffix(ext).and_then(|s| s.strip_suffix('.')) else {
+        return false;
+    };
+    stem.rsplit_once('.').is_some_and(|(id, hash)| {
+        is_valid_asset_id(id) && hash.len() == 16 && blake3_hex.len() >= 16 && hash == &blake3_hex[..16]
+    })
+}
+
 /// True when `name` has the shape of a payload file this crate writes (used to find stale
 /// payloads; other files in the directory are never touched).
 pub(crate) fn looks_like_payload(name: &str) -> bool {
@@ -68,5 +80,13 @@ mod tests {
         assert!(looks_like_payload(&name));
         assert!(!looks_like_payload("notes.txt"));
         assert!(!looks_like_payload("t.0123.ktx2"));
+        let hash = "0123456789abcdef0123";
+        assert!(is_payload_file_of(&name, hash, "ktx2"));
+        assert!(is_payload_file_of("other.id.0123456789abcdef.ktx2", hash, "ktx2"));
+        for bad in
+            ["t.0123456789abcdef.bin", "t.0123456789abcdee.ktx2", "0123456789abcdef.ktx2", "../t.0123456789abcdef.ktx2"]
+        {
+            assert!(!is_payload_file_of(bad, hash, "ktx2"), "{bad}");
+        }
     }
 }

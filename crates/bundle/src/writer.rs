@@ -43,7 +43,7 @@ use crate::error::BundleError;
 use crate::limits::Limits;
 use crate::manifest::{Asset, MANIFEST_FILE, Manifest, Payload, Settings};
 use crate::mesh::MeshData;
-use crate::names::{check_asset_id, looks_like_payload, payload_file_name};
+use crate::names::{check_asset_id, is_payload_file_of, looks_like_payload, payload_file_name};
 use crate::texture::{Supercompression, TextureData};
 use crate::tiles::TableFiles;
 use crate::validate::{check_mesh, check_payload, check_texture};
@@ -82,6 +82,9 @@ pub struct CommitSummary {
     pub manifest_written: bool,
     /// Payload files removed because neither the new nor the replaced manifest names them.
     pub removed: Vec<String>,
+    /// Assets whose payload is stored once under another asset's file, the bytes being the same
+    /// (see [`BundleWriter::commit`]): id → the file the committed manifest names.
+    pub shared: BTreeMap<String, String>,
 }
 
 /// Writes a bundle directory transactionally; see the module docs for the order of writes.
@@ -221,8 +224,7 @@ impl BundleWriter {
                 asset.blake3
             )));
         }
-        let expected_ext = if asset.payload.mesh().is_some() { "bin" } else { "ktx2" };
-        if ext != expected_ext || asset.file != payload_file_name(&asset.id, &hash, ext) {
+        if ext != payload_ext(&asset) || !is_payload_file_of(&asset.file, &hash, ext) {
             return Err(BundleError::InvalidData(format!(
                 "asset `{}`: unexpected payload file name `{}`",
                 asset.id, asset.file
@@ -339,6 +341,7 @@ impl BundleWriter {
         }
         let mut m = Manifest::new();
         m.assets = assets.into_values().collect();
+        share_identical_payloads(&mut m.assets);
         m.budget = match (&self.budget, self.mode, base) {
             (Some(b), ..) => Some(b.clone()),
             (None, WriteMode::Update, Some(base)) => base.budget.clone(),
@@ -398,6 +401,7 @@ impl BundleWriter {
         // names in place; 3. the manifest. On a failure the payloads moved in are taken out
         // again: the bundle stays as it was.
         let named_now: BTreeSet<String> = current.iter().flat_map(|m| m.files()).collect();
+        self.stage_shared(&new, &named_now)?;
         let new_files: BTreeSet<String> =
             new.assets.iter().map(|a| a.file.clone()).chain(tables.iter().map(|(name, _)| name.clone())).collect();
         // Tile tables are staged like payloads, unless the same bytes are in place.
@@ -484,7 +488,59 @@ impl BundleWriter {
         }
         removed.extend(self.sweep_dead_writers());
         removed.sort();
-        Ok(CommitSummary { manifest_written, removed })
+        let shared = new
+            .assets
+            .iter()
+            .filter(|a| a.file != payload_file_name(&a.id, &a.blake3, payload_ext(a)))
+            .map(|a| (a.id.clone(), a.file.clone()))
+            .collect();
+        Ok(CommitSummary { manifest_written, removed, shared })
+    }
+
+    /// Makes every payload file `new` names available to place: staged, or in place and named
+    /// by the manifest it replaces (`named_now`). A file shared by identical payloads is the
+    /// staged file of one of them under the shared name, or a copy of one in place (when the
+    /// assets sharing it changed since the last commit); staged files no asset names any more
+    /// are dropped.
+    fn stage_shared(&mut self, new: &Manifest, named_now: &BTreeSet<String>) -> Result<(), BundleError> {
+        let wanted: BTreeSet<&str> = new.assets.iter().map(|a| a.file.as_str()).collect();
+        let in_place = |dir: &Path, file: &str| fs::symlink_metadata(dir.join(file)).is_ok_and(|m| m.is_file());
+        for a in &new.assets {
+            if self.staged.contains_key(&a.file) || (named_now.contains(&a.file) && in_place(&self.dir, &a.file)) {
+                continue;
+            }
+            let ext = payload_ext(a);
+            let same = |dir: &Path, file: &str| {
+                is_payload_file_of(file, &a.blake3, ext)
+                    && fs::symlink_metadata(dir.join(file)).is_ok_and(|m| m.is_file() && m.len() == a.byte_length)
+            };
+            let spare = self
+                .staged
+                .iter()
+                .find(|(name, temp)| {
+                    !wanted.contains(name.as_str()) && is_payload_file_of(name, &a.blake3, ext) && temp.is_file()
+                })
+                .map(|(name, _)| name.clone());
+            if let Some(name) = spare {
+                let temp = self.staged.remove(&name).expect("found among the staged files");
+                self.staged.insert(a.file.clone(), temp);
+            } else if let Some(source) = named_now.iter().find(|f| same(&self.dir, f)) {
+                let path = self.dir.join(source);
+                let bytes = crate::files::read_limited(&path, a.byte_length, "payload size")?;
+                if blake3::hash(&bytes).to_hex().as_str() == a.blake3 {
+                    let temp = stage(&self.dir, &self.tag, &a.file, &bytes)?;
+                    self.staged.insert(a.file.clone(), temp);
+                }
+            }
+            // Otherwise the payload is missing: placing reports it, naming the asset.
+        }
+        let unused: Vec<String> = self.staged.keys().filter(|name| !wanted.contains(name.as_str())).cloned().collect();
+        for name in unused {
+            if let Some(temp) = self.staged.remove(&name) {
+                let _ = fs::remove_file(temp);
+            }
+        }
+        Ok(())
     }
 
     /// Removes the staged files and locks of writers that were killed; returns their names.
@@ -512,6 +568,25 @@ impl BundleWriter {
             }
         }
         removed
+    }
+}
+
+/// The extension of an asset's payload file: `bin` for meshes, `ktx2` for textures.
+fn payload_ext(a: &Asset) -> &'static str {
+    if a.payload.mesh().is_some() { "bin" } else { "ktx2" }
+}
+
+/// Points assets whose payloads are the same bytes (BLAKE3, length and extension) at one file,
+/// named after the first of their ids, so a bundle stores them once (format 1.10); every other
+/// asset names its own content-derived file. Tiles are left out: a tile's entry is rebuilt from
+/// its tile-table record, which names its own file. `assets` are in id order, so the shared
+/// name does not depend on the order in which jobs were baked.
+fn share_identical_payloads(assets: &mut [Asset]) {
+    let mut first: BTreeMap<(String, u64, &'static str), String> = BTreeMap::new();
+    for a in assets.iter_mut().filter(|a| a.settings.tile().is_none()) {
+        let ext = payload_ext(a);
+        let owner = first.entry((a.blake3.clone(), a.byte_length, ext)).or_insert_with(|| a.id.clone());
+        a.file = payload_file_name(owner, &a.blake3, ext);
     }
 }
 

@@ -3,8 +3,10 @@
 //! Streams map to glTF attributes: `position` → `POSITION` (with the min/max glTF requires),
 //! `normal` → `NORMAL`, a 4-component `tangent` → `TANGENT`, `color` → `COLOR_0`, `uv` →
 //! `TEXCOORD_0`; every other stream becomes a custom attribute named `_` + its upper-cased name
-//! (`_CURVATURE`, `_STRAND_ID`, …). Indices are `UNSIGNED_INT` triangles. One buffer, one buffer
-//! view per stream, all 4-byte aligned.
+//! (`_CURVATURE`, `_STRAND_ID`, …). Indices are triangles, as stored (U32 or U16). One buffer, one buffer
+//! view per stream, all 4-byte aligned. 8- and 16-bit streams are written as they are stored,
+//! `normalized`; where core glTF does not allow their type (8-bit normals and tangents) the file
+//! lists KHR_mesh_quantization as used and required.
 //!
 //! A strands asset is written as its ribbons ([`crate::strands::ribbons`]): flat, non-degenerate
 //! strips with tangents, for tools that do not widen strips in a shader.
@@ -36,30 +38,62 @@ fn accessor_type(components: u8) -> &'static str {
     }
 }
 
+/// glTF's `componentType` of a stream, and whether it is `normalized`; `None` for U32, which
+/// glTF allows only for indices.
+fn component_type(c: ComponentType) -> Option<(u32, bool)> {
+    Some(match c {
+        ComponentType::I8 => (5120, true),
+        ComponentType::U8 => (5121, true),
+        ComponentType::I16 => (5122, true),
+        ComponentType::U16 => (5123, true),
+        ComponentType::F32 => (5126, false),
+        ComponentType::U32 => return None,
+    })
+}
+
+/// Whether core glTF 2.0 allows `component` for attribute `gltf`; where it does not (normals and
+/// tangents in 8 or 16 bits, signed texture coordinates) the file requires KHR_mesh_quantization.
+fn core_allows(gltf: &str, component: ComponentType) -> bool {
+    match gltf {
+        _ if component == ComponentType::F32 => true,
+        "NORMAL" | "TANGENT" | "POSITION" => false,
+        "TEXCOORD_0" | "COLOR_0" => matches!(component, ComponentType::U8 | ComponentType::U16),
+        _ => true, // application-specific attributes take any type
+    }
+}
+
 /// The GLB bytes of a mesh.
 pub fn glb(mesh: &MeshData, generator: &str) -> Result<Vec<u8>, String> {
     let mut bin: Vec<u8> = Vec::new();
     let (mut views, mut accessors, mut attributes) = (Vec::new(), Vec::new(), serde_json::Map::new());
+    let mut quantized = false;
     for a in &mesh.desc.attributes {
-        if a.component != ComponentType::F32 {
-            return Err(format!("stream `{}`: only f32 streams are exported", a.name));
+        let (code, normalized) = component_type(a.component)
+            .ok_or_else(|| format!("stream `{}`: glTF takes U32 only for indices", a.name))?;
+        if a.name == "position" && a.component != ComponentType::F32 {
+            return Err("stream `position`: only f32 positions are exported".into());
         }
+        let gltf = attribute_name(&a.name, a.components);
+        quantized |= !core_allows(&gltf, a.component);
         let start = a.offset as usize;
         let len = a.count as usize * a.stride as usize;
         let data =
             mesh.bytes.get(start..start + len).ok_or_else(|| format!("stream `{}` runs past the payload", a.name))?;
         let mut acc = json!({
             "bufferView": views.len(),
-            "componentType": 5126,
+            "componentType": code,
             "count": a.count,
             "type": accessor_type(a.components),
         });
+        if normalized {
+            acc["normalized"] = json!(true);
+        }
         if a.name == "position" {
             let mut lo = [f32::INFINITY; 3];
             let mut hi = [f32::NEG_INFINITY; 3];
-            for v in data.chunks_exact(12) {
+            for v in mesh.elements(a) {
                 for k in 0..3 {
-                    let x = f32::from_le_bytes([v[4 * k], v[4 * k + 1], v[4 * k + 2], v[4 * k + 3]]);
+                    let x = a.component.normalized(v, k);
                     lo[k] = lo[k].min(x);
                     hi[k] = hi[k].max(x);
                 }
@@ -67,23 +101,31 @@ pub fn glb(mesh: &MeshData, generator: &str) -> Result<Vec<u8>, String> {
             acc["min"] = json!(lo);
             acc["max"] = json!(hi);
         }
-        views.push(json!({ "buffer": 0, "byteOffset": bin.len(), "byteLength": len, "target": 34962 }));
-        attributes.insert(attribute_name(&a.name, a.components), json!(accessors.len()));
+        while !bin.len().is_multiple_of(4) {
+            bin.push(0);
+        }
+        let mut view = json!({ "buffer": 0, "byteOffset": bin.len(), "byteLength": len, "target": 34962 });
+        if a.stride as usize != a.element_bytes() {
+            view["byteStride"] = json!(a.stride);
+        }
+        views.push(view);
+        attributes.insert(gltf, json!(accessors.len()));
         accessors.push(acc);
         bin.extend_from_slice(data);
     }
     let mut primitive = json!({ "attributes": attributes, "mode": 4 });
     if let Some(ix) = &mesh.desc.indices {
         let start = ix.offset as usize;
-        let len = ix.count as usize * 4;
+        let (code, size) = if ix.component == ComponentType::U16 { (5123, 2) } else { (5125, 4) };
+        let len = ix.count as usize * size;
         let data = mesh.bytes.get(start..start + len).ok_or("the index stream runs past the payload")?;
         views.push(json!({ "buffer": 0, "byteOffset": bin.len(), "byteLength": len, "target": 34963 }));
         primitive["indices"] = json!(accessors.len());
         accessors
-            .push(json!({ "bufferView": views.len() - 1, "componentType": 5125, "count": ix.count, "type": "SCALAR" }));
+            .push(json!({ "bufferView": views.len() - 1, "componentType": code, "count": ix.count, "type": "SCALAR" }));
         bin.extend_from_slice(data);
     }
-    let doc = json!({
+    let mut doc = json!({
         "asset": { "version": "2.0", "generator": generator },
         "scene": 0,
         "scenes": [{ "nodes": [0] }],
@@ -93,6 +135,10 @@ pub fn glb(mesh: &MeshData, generator: &str) -> Result<Vec<u8>, String> {
         "bufferViews": views,
         "accessors": accessors,
     });
+    if quantized {
+        doc["extensionsUsed"] = json!(["KHR_mesh_quantization"]);
+        doc["extensionsRequired"] = json!(["KHR_mesh_quantization"]);
+    }
     let mut text = serde_json::to_vec(&doc).map_err(|e| e.to_string())?;
     while text.len() % 4 != 0 {
         text.push(b' ');

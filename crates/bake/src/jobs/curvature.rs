@@ -22,7 +22,8 @@ pub struct CurvatureJob {
     /// Wavefront OBJ with texture coordinates on every face corner, or glTF 2.0 (`.gltf`,
     /// `.glb`) whose first mesh has `POSITION` and `TEXCOORD_0` (see [`crate::mesh::gltf`]).
     pub input: PathBuf,
-    /// Payload compression: `Zstd(level)` (1–22), or `None`.
+    /// Payload compression: `Auto` (the default: a zstd level per kind of payload), `Zstd(level)`
+    /// (1–22), or `None`.
     #[serde(default)]
     pub compression: crate::Compression,
 }

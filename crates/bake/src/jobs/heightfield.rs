@@ -74,7 +74,8 @@ pub struct HeightfieldJob {
 pub struct HeightfieldOptions {
     /// Storage format.
     pub format: HeightFormat,
-    /// Payload compression: `Zstd(level)` (1–22), or `None`.
+    /// Payload compression: `Auto` (the default: a zstd level per kind of payload), `Zstd(level)`
+    /// (1–22), or `None`.
     pub compression: crate::Compression,
 }
 

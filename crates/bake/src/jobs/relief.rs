@@ -60,10 +60,11 @@ pub struct ReliefOptions {
     /// left at their defaults.
     #[cfg_attr(feature = "clap", arg(long, value_enum))]
     pub preset: Option<ReliefPreset>,
-    /// Payload compression: `Zstd(level)` (1–22), or `None` (`--zstd 0`).
+    /// Payload compression: `Auto` (a zstd level per kind of payload, `--zstd auto`), `Zstd(level)`
+    /// (1–22), or `None` (`--zstd 0`).
     #[cfg_attr(
         feature = "clap",
-        arg(long = "zstd", value_name = "LEVEL", value_parser = crate::compression::parse_level, default_value = "3")
+        arg(long = "zstd", value_name = "LEVEL", value_parser = crate::compression::parse_level, default_value = "auto")
     )]
     pub compression: crate::Compression,
 }

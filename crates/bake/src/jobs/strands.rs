@@ -12,8 +12,8 @@ use crate::strands::strips::{self, StripSets};
 use crate::strands::{self, Strands, auto, ribbons};
 
 /// Version of the strands job; part of the input hash. 3: point records (format 1.5), colour
-/// settings, the visibility rule.
-pub const ALGORITHM_VERSION: u32 = 3;
+/// settings, the visibility rule; 4: quantized ribbon streams (format 1.10).
+pub const ALGORITHM_VERSION: u32 = 4;
 
 /// A strands bake. Asset ids: `<id>.strips`, and `<id>.ribbons` with `ribbons`.
 ///
@@ -74,10 +74,11 @@ pub struct StrandsOptions {
     /// Linear RGB at the tip (see `root_color`).
     #[cfg_attr(feature = "clap", arg(long, value_name = "R,G,B", value_parser = parse_rgb))]
     pub tip_color: Option<[f32; 3]>,
-    /// Payload compression: `Zstd(level)` (1–22), or `None` (`--zstd 0`).
+    /// Payload compression: `Auto` (a zstd level per kind of payload, `--zstd auto`), `Zstd(level)`
+    /// (1–22), or `None` (`--zstd 0`).
     #[cfg_attr(
         feature = "clap",
-        arg(long = "zstd", value_name = "LEVEL", value_parser = crate::compression::parse_level, default_value = "3")
+        arg(long = "zstd", value_name = "LEVEL", value_parser = crate::compression::parse_level, default_value = "auto")
     )]
     pub compression: crate::Compression,
 }

@@ -3,14 +3,22 @@
 //! a minimum-twist (parallel-transport) frame along the strand, so it does not corkscrew.
 //!
 //! Built from a strands asset's records, so the `ribbons` job option and `hikage export --gltf`
-//! of a strands asset give the same mesh. Streams: `position` (3), `normal` (3, the ribbon's
-//! face), `tangent` (4: the strand's direction, w = 1, as glTF's `TANGENT` wants), `uv` (2:
-//! 0 or 1 across, `param` along), `color` (4: linear RGB and the shading opacity), `strand_id`
-//! (1, exact up to 2²⁴ strands); U32 triangle indices, 6 per segment. glTF export names them
-//! `POSITION`, `NORMAL`, `TANGENT`, `TEXCOORD_0`, `COLOR_0` and `_STRAND_ID`.
+//! of a strands asset give the same mesh. Streams, quantized as KHR_mesh_quantization allows
+//! (36 bytes a vertex instead of 68 in floats):
+//! - `position`: F32 × 3, exact (the ribbon is a fraction of a millimetre wide);
+//! - `normal`: the ribbon's face, I8 × 3 normalized (padded to 4 bytes);
+//! - `tangent`: the strand's direction and w = 1 (as glTF's `TANGENT` wants), I8 × 4 normalized;
+//! - `uv`: 0 or 1 across, `param` along, U16 × 2 normalized;
+//! - `color`: linear RGB and the shading opacity, U16 × 4 normalized (16 bits keep the records'
+//!   sRGB 8-bit colours exact to 1/65535 in linear, dark hair included);
+//! - `strand_id`: F32 × 1, exact up to 2²⁴ strands;
+//!
+//! and U32 triangle indices, 6 per segment. The normal and tangent are within 1/127 per
+//! component (under half a degree) of the frame's; glTF export names the streams `POSITION`,
+//! `NORMAL`, `TANGENT`, `TEXCOORD_0`, `COLOR_0` and `_STRAND_ID`.
 
 use glam::Vec3;
-use hikage_bundle::{MeshData, StrandPoint};
+use hikage_bundle::{ComponentType, MeshData, StrandPoint};
 
 /// `v / |v|`, or `None` when `v` is shorter than 1e-12.
 fn unit(v: Vec3) -> Option<Vec3> {
@@ -63,16 +71,20 @@ pub fn build(points: &[StrandPoint], taper: f32) -> MeshData {
         }
     }
     let mut mesh = MeshData::new(2 * n as u32);
-    let streams: [(&str, u8, &[f32]); 6] = [
-        ("position", 3, &position),
-        ("normal", 3, &normal),
-        ("tangent", 4, &tangent),
-        ("uv", 2, &uv),
-        ("color", 4, &color),
-        ("strand_id", 1, &strand_id),
+    let streams: [(&str, ComponentType, u8, &[f32]); 6] = [
+        ("position", ComponentType::F32, 3, &position),
+        ("normal", ComponentType::I8, 3, &normal),
+        ("tangent", ComponentType::I8, 4, &tangent),
+        ("uv", ComponentType::U16, 2, &uv),
+        ("color", ComponentType::U16, 4, &color),
+        ("strand_id", ComponentType::F32, 1, &strand_id),
     ];
-    for (name, c, v) in streams {
-        mesh.push_f32(name, c, v).expect("sizes follow the vertex count");
+    for (name, component, c, v) in streams {
+        match component {
+            ComponentType::F32 => mesh.push_f32(name, c, v),
+            _ => mesh.push_normalized(name, component, c, v),
+        }
+        .expect("sizes follow the vertex count");
     }
     mesh.set_indices(&indices).expect("indices stay below the vertex count");
     mesh
@@ -118,6 +130,27 @@ mod tests {
                 assert!(across.dot(prev) > 0.3f32.cos() - 1e-3, "twist at {p}");
             }
             previous = Some(across);
+        }
+        // The quantized streams against the frame: the tangent within half an 8-bit step (and
+        // the records' 16-bit octahedral rounding), w = 1; the normal across both the strand and
+        // the ribbon; `uv` 0 or 1 across and the point's place along within half a 16-bit step.
+        let (normal, tangent, uv) = (
+            mesh.read_normalized("normal").unwrap(),
+            mesh.read_normalized("tangent").unwrap(),
+            mesh.read_normalized("uv").unwrap(),
+        );
+        for v in 0..80 {
+            let p = v / 2;
+            let t = strips::tangent(&s.points, 0, 40, p);
+            let got = Vec3::from_slice(&tangent[4 * v..]);
+            assert!((got - t).abs().max_element() <= 0.5 / 127.0 + 1e-3, "tangent {got} against {t} at {v}");
+            assert_eq!(tangent[4 * v + 3], 1.0);
+            let side = (Vec3::from_slice(&pos[6 * p + 3..]) - Vec3::from_slice(&pos[6 * p..])).normalize();
+            let face = Vec3::from_slice(&normal[3 * v..]);
+            assert!(face.dot(t).abs() < 0.02 && face.dot(side).abs() < 0.02, "normal {face} at {v}");
+            assert!((face.length() - 1.0).abs() < 0.02, "normal {face} at {v}");
+            assert_eq!(uv[2 * v], (v % 2) as f32);
+            assert!((uv[2 * v + 1] - p as f32 / 39.0).abs() <= 0.5 / 65535.0 + 1e-7);
         }
         assert_eq!(mesh.read_indices().unwrap().len(), 39 * 6);
         // Every triangle has area: the strips are not degenerate.

@@ -76,10 +76,11 @@ pub struct HorizonOptions {
     #[serde(skip_serializing_if = "Option::is_none")]
     #[cfg_attr(feature = "clap", arg(long, value_name = "N", requires = "tile"))]
     pub levels: Option<u32>,
-    /// Payload compression: `Zstd(level)` (1–22), or `None` (`--zstd 0`).
+    /// Payload compression: `Auto` (a zstd level per kind of payload, `--zstd auto`), `Zstd(level)`
+    /// (1–22), or `None` (`--zstd 0`).
     #[cfg_attr(
         feature = "clap",
-        arg(long = "zstd", value_name = "LEVEL", value_parser = crate::compression::parse_level, default_value = "3")
+        arg(long = "zstd", value_name = "LEVEL", value_parser = crate::compression::parse_level, default_value = "auto")
     )]
     pub compression: crate::Compression,
 }
