@@ -406,6 +406,58 @@ fn the_blend_follows_the_sorted_composite_on_dense_hair() {
     assert!(blend < 0.035 && blend < 0.8 * one_weight, "blend {blend}, one weight {one_weight}");
 }
 
+/// Levels of detail on hair that moves: a head walking, turning and nodding with the camera
+/// riding along (the light stays put in the world). At every pose the automatic choice for the
+/// camera is the still head's, and each of the first four levels keeps the mean brightness over
+/// the view within the 10% of every strand's that holds for the still head. Shrunk to a quarter
+/// by its model matrix where it stands, its strands a quarter as wide on screen, the automatic
+/// choice drops one or two more levels (each level doubles the width: two, but for rounding).
+#[test]
+fn levels_of_detail_follow_hair_that_moves() {
+    use hikage_runtime::glam::{Mat4, Quat};
+    use hikage_scenes::hair_view::{mean_luminance, render_view, renderers};
+    let Some(g) = gpu("levels_of_detail_follow_hair_that_moves") else { return };
+    let size = 128;
+    let (dir, _) = layout_bundle("gpu_hair_lod_moving", &synth::hair(4000, 16, 7), 1.0);
+    let cpu = CpuBundle::read(&dir.path("bundle")).unwrap();
+    let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
+    let (one, _) = renderers(&g, &gb, "h.strips", size, 1, 128).unwrap();
+    let levels = one.levels().len() as u32;
+    let s = one.settings();
+    let (lo, hi) = (Vec3::from(s.bounds_min), Vec3::from(s.bounds_max));
+    let (centre, extent) = (0.5 * (lo + hi), (hi - lo).max_element());
+    let still = HairFrame { lod: HairLod::default(), ..view_frame(&one, 0.0, 1.0, 0) };
+    let auto = one.chosen_levels(&still).0;
+    let to_light = Vec3::new(0.45, 1.0, 0.3);
+    for step in 1..4 {
+        let t = step as f32;
+        let turn = Quat::from_rotation_y(0.6 * t) * Quat::from_rotation_x(0.25 * t);
+        let model = Mat4::from_rotation_translation(turn, Vec3::new(3.0, 0.5, -2.0) * t * extent);
+        let at = |camera: Lod| HairFrame {
+            model,
+            camera: still.camera * model.inverse(),
+            eye: model.transform_point3(still.eye),
+            light: one.light_at(model, to_light),
+            lod: HairLod { camera, light: Lod::Level(0) },
+            ..still
+        };
+        assert_eq!(one.chosen_levels(&at(Lod::Auto)).0, auto, "pose {step}");
+        let full = mean_luminance(&render_view(&g, &one, &at(Lod::Level(0)), size, 1));
+        eprintln!("pose {step}: mean luminance {full:.4}");
+        assert!(full > 0.002, "pose {step}: the hair is in view ({full})");
+        for level in 1..4 {
+            let m = mean_luminance(&render_view(&g, &one, &at(Lod::Level(level)), size, 1));
+            eprintln!("pose {step}, level {level}: {:+.2}%", 100.0 * (m / full - 1.0));
+            assert!((m / full - 1.0).abs() < 0.10, "pose {step}, level {level}: {m} against {full}");
+        }
+    }
+    let quarter =
+        Mat4::from_translation(centre) * Mat4::from_scale(Vec3::splat(0.25)) * Mat4::from_translation(-centre);
+    let small = one.chosen_levels(&HairFrame { model: quarter, light: one.light_at(quarter, to_light), ..still }).0;
+    eprintln!("automatic level: {auto} at full size, {small} at a quarter");
+    assert!(small >= (auto + 1).min(levels - 1) && small <= auto + 2, "{auto} at full size, {small} at a quarter");
+}
+
 /// Levels of detail keep the hair's coverage: each of the first four levels draws about half the
 /// strands of the one before, widened, and the mean brightness over the view (coverage ×
 /// shade over black) stays within 10% of every strand's.
