@@ -23,26 +23,27 @@ const TEXEL: f32 = 30.0;
 fn bundle() -> PathBuf {
     use std::sync::OnceLock;
     static BAKED: OnceLock<PathBuf> = OnceLock::new();
-    BAKED
-        .get_or_init(|| {
-            let dir = Dir::new("gpu_stream");
-            let heights: Vec<u8> = hikage_devkit::synth::terrain(N).into_iter().flat_map(f32::to_le_bytes).collect();
-            dir.write("dem.r32", heights);
-            let job = |id: &str, tiles: &str| {
-                format!(
-                    r#"Horizon(id: "{id}", input: "dem.r32", texel_size: ({TEXEL}, {TEXEL}), height_scale: 1200,
-                       directions: 16, edge: Clamp, max_distance: 600, ao: true{tiles}),"#
-                )
-            };
-            let tiled = format!(", tile: {TILE}, levels: 16");
-            dir.write(
-                "pipeline.ron",
-                format!(r#"(output: "bundle", jobs: [{} {}])"#, job("whole", ""), job("dem", &tiled)),
-            );
-            dir.run(&["bake"]);
-            dir.path("bundle")
-        })
-        .clone()
+    BAKED.get_or_init(|| bake("gpu_stream", N, TILE, 16)).clone()
+}
+
+/// The devkit's rough terrain at `n`², baked whole (`whole.*`) and in `tile`² tiles with every
+/// level (`dem.*`), `directions` azimuths, with occlusion. Its relief grows with its side (1200 m
+/// at 1024²), so a texel's slopes, and the share a low sun shadows, are alike at every size.
+fn bake(name: &str, n: u32, tile: u32, directions: u32) -> PathBuf {
+    let height_scale = 1200 * n / 1024;
+    let dir = Dir::new(name);
+    let heights: Vec<u8> = hikage_devkit::synth::terrain(n).into_iter().flat_map(f32::to_le_bytes).collect();
+    dir.write("dem.r32", heights);
+    let job = |id: &str, tiles: &str| {
+        format!(
+            r#"Horizon(id: "{id}", input: "dem.r32", texel_size: ({TEXEL}, {TEXEL}), height_scale: {height_scale},
+               directions: {directions}, edge: Clamp, max_distance: 600, ao: true{tiles}),"#
+        )
+    };
+    let tiled = format!(", tile: {tile}, levels: 16");
+    dir.write("pipeline.ron", format!(r#"(output: "bundle", jobs: [{} {}])"#, job("whole", ""), job("dem", &tiled)));
+    dir.run(&["bake"]);
+    dir.path("bundle")
 }
 
 fn options() -> DrawOptions {
@@ -65,63 +66,101 @@ fn low_sun() -> Sun {
 
 #[test]
 fn streamed_level_0_shades_as_the_whole_map_across_tile_edges() {
-    let dir = bundle();
     let Some(g) = gpu("streamed_level_0_shades_as_the_whole_map_across_tile_edges") else { return };
-    let cpu = CpuBundle::read_prefix(&dir, "whole.").unwrap();
+    level_0_shades_as_the_whole_map(&g, &bundle(), N, TILE, low_sun(), 1.0 / 255.0);
+}
+
+/// A 4096² terrain in 256² tiles (5 levels), 123 km a side, under the sun's own disk (0.27° of
+/// radius, as a game draws it). With a point sun, a point whose horizon equals the sun's
+/// elevation to within float rounding lands lit in one draw and shadowed in the other, a few in
+/// 16 million pixels wherever they fall (32 inside tiles, 2 on edges); with the disk the same
+/// rounding — of world positions 123 km out, 8 mm a step in f32, in the one-mesh reference —
+/// moves sun visibility by a few 255ths where horizons are steep (1.5/255 on the edge pixels a
+/// 1/255 bound caught), so visibility is compared within 4/255 (horizons 0.008° apart, against
+/// a disk 0.53° across); 12 pixels inside tiles differ by more (at most 21/255), none on edges. Left out of the README's test command by
+/// `#[ignore]` (its bakes and 4096² frames take about a minute on two cores); CI runs it as a
+/// step of its own.
+#[test]
+#[ignore = "a 4096² terrain baked and drawn whole and in tiles (about a minute): its own step of .ci/run"]
+fn streamed_level_0_of_a_4096_map_in_256_tiles_shades_as_the_whole_map() {
+    let Some(g) = gpu("streamed_level_0_of_a_4096_map_in_256_tiles_shades_as_the_whole_map") else { return };
+    let sun = Sun { angular_radius: Sun::default().angular_radius, ..low_sun() };
+    level_0_shades_as_the_whole_map(&g, &bake("gpu_stream_4096", 4096, 256, 8), 4096, 256, sun, 4.0 / 255.0);
+}
+
+/// The tiles of map `dem` in `dir` (`n`², `tile`² tiles), streamed with level 0 everywhere and
+/// seen straight down at one pixel a texel under `sun` (low), against the one-mesh terrain of the
+/// whole map (`whole`): sun and sky visibility, pixel by pixel, none differing by more than
+/// `tolerance` within a pixel of a tile edge and at most 0.1% elsewhere.
+fn level_0_shades_as_the_whole_map(
+    g: &hikage_scenes::headless::Headless,
+    dir: &std::path::Path,
+    n: u32,
+    tile: u32,
+    sun: Sun,
+    tolerance: f32,
+) {
+    let cpu = CpuBundle::read_prefix(dir, "whole.").unwrap();
     let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
     let whole = TerrainShadows::new(&g.device, &g.queue, &gb, "whole.horizon", Some("whole.ao"), &options()).unwrap();
     // Level 0 everywhere: every tile split down to level 0, all of them resident.
     let stream_options =
-        StreamOptions { detail: 1e9, resident_bytes: 1 << 30, upload_bytes: 1 << 30, ..StreamOptions::default() };
-    let mut stream = TerrainStream::open(&g.device, &g.queue, &dir, "dem", &options(), stream_options).unwrap();
+        StreamOptions { detail: 1e9, resident_bytes: 8 << 30, upload_bytes: 8 << 30, ..StreamOptions::default() };
+    let mut stream = TerrainStream::open(&g.device, &g.queue, dir, "dem", &options(), stream_options).unwrap();
 
     // Straight down on the whole map, one pixel a texel.
-    let side = N as f32 * TEXEL;
+    let side = n as f32 * TEXEL;
     let half = side / 2.0;
-    let view_proj = directx::orthographic(-half, half, -half, half, 100.0, 5000.0)
-        * look_at_mat4(Vec3::new(half, 3000.0, half), Vec3::new(half, 0.0, half), Vec3::NEG_Z);
-    let frame = TerrainFrame { view_proj, sun: low_sun(), ..TerrainFrame::default() };
-    let eye = Vec3::new(half, 3000.0, half);
+    // Above the highest peak (the relief is 1200 m at 1024², growing with the side).
+    let above = 2.5 * 1200.0 * n as f32 / 1024.0;
+    let view_proj = directx::orthographic(-half, half, -half, half, 100.0, above + 2000.0)
+        * look_at_mat4(Vec3::new(half, above, half), Vec3::new(half, 0.0, half), Vec3::NEG_Z);
+    let frame = TerrainFrame { view_proj, sun, ..TerrainFrame::default() };
+    let eye = Vec3::new(half, above, half);
     let mut stats = stream.update(&g.device, &g.queue, &frame, eye).unwrap();
-    for _ in 0..2000 {
+    for _ in 0..20_000 {
         if stats.missing == 0 && stats.finest_drawn == 0 {
             break;
         }
         std::thread::sleep(std::time::Duration::from_millis(5));
         stats = stream.update(&g.device, &g.queue, &frame, eye).unwrap();
     }
-    assert_eq!((stats.missing, stats.finest_drawn, stats.drawn), (0, 0, 256), "{stats:?}");
+    let tiles = (n / tile) as usize;
+    assert_eq!((stats.missing, stats.finest_drawn, stats.drawn), (0, 0, tiles * tiles), "{stats:?}");
     whole.update(&g.queue, &frame);
-    let a = g.render((N, N), wgpu::Color::BLACK, |pass| whole.draw(pass));
-    let b = g.render((N, N), wgpu::Color::BLACK, |pass| stream.draw(pass));
+    let a = g.render((n, n), wgpu::Color::BLACK, |pass| whole.draw(pass));
+    let b = g.render((n, n), wgpu::Color::BLACK, |pass| stream.draw(pass));
 
     // Sun and sky visibility, pixel by pixel; pixels within one of a tile edge apart.
     let (mut covered, mut differ, mut edge_pixels, mut edge_differ, mut lit) = (0, 0, 0, 0, 0);
-    let mut colour_differ = 0;
-    for row in 1..N - 1 {
-        for col in 1..N - 1 {
-            let (p, q) = (a.visibility[(row * N + col) as usize], b.visibility[(row * N + col) as usize]);
+    let (mut colour_differ, mut worst) = (0, 0.0f32);
+    for row in 1..n - 1 {
+        for col in 1..n - 1 {
+            let (p, q) = (a.visibility[(row * n + col) as usize], b.visibility[(row * n + col) as usize]);
             if p[1] < 0.5 {
                 continue;
             }
             covered += 1;
             lit += (p[0] > 0.5) as usize;
-            let near_edge = [col, row].iter().any(|&c| matches!(c % TILE, 0 | 1 | 63));
+            let near_edge = [col, row].iter().any(|&c| [0, 1, tile - 1].contains(&(c % tile)));
             edge_pixels += near_edge as usize;
-            let different = q[1] < 0.5 || (p[0] - q[0]).abs() > 1.0 / 255.0 || (p[2] - q[2]).abs() > 1.0 / 255.0;
+            let different = q[1] < 0.5 || (p[0] - q[0]).abs() > tolerance || (p[2] - q[2]).abs() > tolerance;
+            worst = worst.max((p[0] - q[0]).abs()).max((p[2] - q[2]).abs());
             differ += different as usize;
-            let at = (row * N + col) as usize * 4;
+            let at = (row * n + col) as usize * 4;
             colour_differ +=
                 (a.color[at..at + 3].iter().zip(&b.color[at..at + 3]).any(|(x, y)| x.abs_diff(*y) > 1)) as usize;
             edge_differ += (different && near_edge) as usize;
         }
     }
     eprintln!(
-        "stream vs whole: {covered} pixels, {:.1}% lit; {differ} differ ({colour_differ} in colour), \
-         {edge_differ} of {edge_pixels} along tile edges",
-        100.0 * lit as f64 / covered as f64
+        "{n}² in {tile}² tiles, stream vs whole: {covered} pixels, {:.1}% lit; {differ} differ ({colour_differ} in colour), \
+         {edge_differ} of {edge_pixels} along tile edges; visibility at most {:.2}/255 apart where both draw",
+        100.0 * lit as f64 / covered as f64,
+        worst * 255.0
     );
-    assert!(covered > 1_000_000 && edge_pixels > 90_000);
+    let pixels = (n as usize - 2).pow(2);
+    assert!(covered > pixels * 95 / 100 && edge_pixels > 5 * pixels / tile as usize, "{covered}, {edge_pixels}");
     assert!((0.2..0.95).contains(&(lit as f64 / covered as f64)), "a low sun casts long shadows");
     assert_eq!(edge_differ, 0, "tile edges");
     assert!(differ as f64 <= 0.001 * covered as f64, "{differ} pixels differ");
