@@ -15,17 +15,22 @@ use hikage_bake::run::{RunOptions, run_pipeline};
 use crate::best_of;
 
 /// The `[profile]` settings compared, by name.
-const VARIANTS: [(&str, &str); 4] = [
+const VARIANTS: [(&str, &str); 5] = [
     ("none (cargo's defaults: opt-level 0)", ""),
     ("hikage-bake at opt-level 2", "[profile.dev.package.hikage-bake]\nopt-level = 2\n"),
-    ("hikage-bake and hikage-bundle at opt-level 2 (recommended)", RECOMMENDED),
+    ("hikage-bake and hikage-bundle at opt-level 2", BAKER),
+    ("the same and zstd-sys (libzstd) at opt-level 2 (recommended)", RECOMMENDED),
     ("every build dependency at opt-level 3", "[profile.dev.build-override]\nopt-level = 3\n"),
 ];
 
-/// The lines the README and docs/pipeline.md recommend, for `cargo build` (dev): the release profile takes the same
-/// two with `release` in place of `dev`.
-const RECOMMENDED: &str =
+/// The two crates of the baker at opt-level 2, for `cargo build` (dev).
+const BAKER: &str =
     "[profile.dev.package.hikage-bake]\nopt-level = 2\n[profile.dev.package.hikage-bundle]\nopt-level = 2\n";
+
+/// The lines the README and docs/pipeline.md recommend, for `cargo build` (dev): the baker's
+/// two crates and libzstd (the sample pipeline compresses its horizons at level 19); the release
+/// profile takes the same three with `release` in place of `dev`.
+const RECOMMENDED: &str = "[profile.dev.package.hikage-bake]\nopt-level = 2\n[profile.dev.package.hikage-bundle]\nopt-level = 2\n[profile.dev.package.zstd-sys]\nopt-level = 2\n";
 
 pub fn run() {
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
