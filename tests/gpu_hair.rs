@@ -298,6 +298,22 @@ fn hair_reference_shadow_converges() {
     assert!(plain_rms > 5.0 * rms, "1× maps {plain_rms} should be far from the reference ({rms})");
 }
 
+/// [`layout_bundle`]'s strands uploaded and a renderer of a `size`² view at one sample a pixel
+/// (opacity maps of 128²), with the strip arrays of the CPU references.
+fn layout_renderer(
+    g: &hikage_scenes::headless::Headless,
+    name: &str,
+    s: &Strands,
+    width_scale: f32,
+    size: u32,
+) -> (HairRenderer, StripArrays) {
+    let (dir, arrays) = layout_bundle(name, s, width_scale);
+    let cpu = CpuBundle::read(&dir.path("bundle")).unwrap();
+    let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
+    let (one, _) = hikage_scenes::hair_view::renderers(g, &gb, "h.strips", size, 1, 128).unwrap();
+    (one, arrays)
+}
+
 /// Strands baked into a bundle as `h.strips`, the sets from the source (widths scaled by
 /// `width_scale`).
 fn layout_bundle(name: &str, s: &Strands, width_scale: f32) -> (Dir, StripArrays) {
@@ -373,14 +389,11 @@ fn sub_pixel_hair_in_view_matches_the_supersampled_reference() {
 #[test]
 fn the_blend_follows_the_sorted_composite_on_dense_hair() {
     use hikage_runtime::hair::HairUniform;
-    use hikage_scenes::hair_view::{Image, difference, hair_mask, render_view, renderers};
+    use hikage_scenes::hair_view::{Image, difference, hair_mask, render_view};
     let Some(g) = gpu("the_blend_follows_the_sorted_composite_on_dense_hair") else { return };
     let size = 128;
     // The generated head at 10× its strand width: about a pixel wide at opacity 0.37.
-    let (dir, arrays) = layout_bundle("gpu_hair_blend", &synth::hair(6000, 16, 5), 10.0);
-    let cpu = CpuBundle::read(&dir.path("bundle")).unwrap();
-    let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
-    let (one, _) = renderers(&g, &gb, "h.strips", size, 1, 128).unwrap();
+    let (one, arrays) = layout_renderer(&g, "gpu_hair_blend", &synth::hair(6000, 16, 5), 10.0, size);
     let frame = view_frame(&one, 0.0, 1.0, 0);
     let gpu_view = render_view(&g, &one, &frame, size, 1);
     let maps = read_opacity_maps(&g, &one);
@@ -415,13 +428,10 @@ fn the_blend_follows_the_sorted_composite_on_dense_hair() {
 #[test]
 fn levels_of_detail_follow_hair_that_moves() {
     use hikage_runtime::glam::{Mat4, Quat};
-    use hikage_scenes::hair_view::{mean_luminance, render_view, renderers};
+    use hikage_scenes::hair_view::{mean_luminance, render_view};
     let Some(g) = gpu("levels_of_detail_follow_hair_that_moves") else { return };
     let size = 128;
-    let (dir, _) = layout_bundle("gpu_hair_lod_moving", &synth::hair(4000, 16, 7), 1.0);
-    let cpu = CpuBundle::read(&dir.path("bundle")).unwrap();
-    let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
-    let (one, _) = renderers(&g, &gb, "h.strips", size, 1, 128).unwrap();
+    let (one, _) = layout_renderer(&g, "gpu_hair_lod_moving", &synth::hair(4000, 16, 7), 1.0, size);
     let levels = one.levels().len() as u32;
     let s = one.settings();
     let (lo, hi) = (Vec3::from(s.bounds_min), Vec3::from(s.bounds_max));
@@ -463,13 +473,10 @@ fn levels_of_detail_follow_hair_that_moves() {
 /// shade over black) stays within 10% of every strand's.
 #[test]
 fn levels_of_detail_keep_the_coverage() {
-    use hikage_scenes::hair_view::{mean_luminance, render_view, renderers};
+    use hikage_scenes::hair_view::{mean_luminance, render_view};
     let Some(g) = gpu("levels_of_detail_keep_the_coverage") else { return };
     let size = 128;
-    let (dir, _) = layout_bundle("gpu_hair_lod", &synth::hair(4000, 16, 7), 1.0);
-    let cpu = CpuBundle::read(&dir.path("bundle")).unwrap();
-    let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).unwrap();
-    let (one, _) = renderers(&g, &gb, "h.strips", size, 1, 128).unwrap();
+    let (one, _) = layout_renderer(&g, "gpu_hair_lod", &synth::hair(4000, 16, 7), 1.0, size);
     let levels = one.levels();
     assert!(levels.len() >= 4 && levels[3][0] == 500, "{levels:?}");
     let full = mean_luminance(&render_view(&g, &one, &view_frame(&one, 0.0, 1.0, 0), size, 1));

@@ -42,14 +42,17 @@ pub fn run() {
         let stem = if compression.is_empty() { "as-is".to_string() } else { compression.replace(['(', ')'], "") };
         let dir = scratch.join(format!("{stem}{}", if bc { "-bc" } else { "" }));
         copy_dir(Path::new("data"), &dir.join("data"));
-        // Without the default pipeline's budget, which the raw bundle is over by design, and
-        // (but in the first case) without its own compression settings.
-        let mut pipeline: String =
-            text.lines().filter(|l| !l.trim_start().starts_with("budget:")).map(|l| format!("{l}\n")).collect();
-        if compression.is_empty() {
-            pipeline = text.clone();
-        } else {
-            pipeline = pipeline.replace(", compression: Zstd(19)", "").replace("compression: Zstd(19),", "");
+        // The pipeline as it is; or without its budget (the raw bundle is over it by design)
+        // and its horizons' own compression, every job given this case's.
+        let mut pipeline = text.clone();
+        if !compression.is_empty() {
+            pipeline = text
+                .lines()
+                .filter(|l| !l.trim_start().starts_with("budget:"))
+                .map(|l| format!("{l}\n"))
+                .collect::<String>()
+                .replace(", compression: Zstd(19)", "")
+                .replace("compression: Zstd(19),", "");
         }
         for kind in KINDS.iter().filter(|_| !compression.is_empty()) {
             let format = match (bc, *kind) {

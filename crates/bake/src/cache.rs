@@ -121,7 +121,7 @@ impl Cache {
         assets
             .into_iter()
             .map(|a| {
-                let ext = if a.payload.mesh().is_some() { "bin" } else { "ktx2" };
+                let ext = a.payload.file_extension();
                 if a.input_hash != hash || !is_payload_file_of(&a.file, &a.blake3, ext) {
                     return None;
                 }

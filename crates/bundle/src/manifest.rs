@@ -195,6 +195,14 @@ pub enum Payload {
 }
 
 impl Payload {
+    /// The extension of the payload's file: `ktx2` for a texture, `bin` for a mesh buffer.
+    pub fn file_extension(&self) -> &'static str {
+        match self {
+            Payload::Texture(_) => "ktx2",
+            Payload::Mesh(_) => "bin",
+        }
+    }
+
     /// The texture description, when the payload is a texture.
     pub fn texture(&self) -> Option<&TextureDesc> {
         match self {

@@ -224,7 +224,7 @@ impl BundleWriter {
                 asset.blake3
             )));
         }
-        if ext != payload_ext(&asset) || !is_payload_file_of(&asset.file, &hash, ext) {
+        if ext != asset.payload.file_extension() || !is_payload_file_of(&asset.file, &hash, ext) {
             return Err(BundleError::InvalidData(format!(
                 "asset `{}`: unexpected payload file name `{}`",
                 asset.id, asset.file
@@ -491,7 +491,7 @@ impl BundleWriter {
         let shared = new
             .assets
             .iter()
-            .filter(|a| a.file != payload_file_name(&a.id, &a.blake3, payload_ext(a)))
+            .filter(|a| a.file != payload_file_name(&a.id, &a.blake3, a.payload.file_extension()))
             .map(|a| (a.id.clone(), a.file.clone()))
             .collect();
         Ok(CommitSummary { manifest_written, removed, shared })
@@ -509,7 +509,7 @@ impl BundleWriter {
             if self.staged.contains_key(&a.file) || (named_now.contains(&a.file) && in_place(&self.dir, &a.file)) {
                 continue;
             }
-            let ext = payload_ext(a);
+            let ext = a.payload.file_extension();
             let same = |dir: &Path, file: &str| {
                 is_payload_file_of(file, &a.blake3, ext)
                     && fs::symlink_metadata(dir.join(file)).is_ok_and(|m| m.is_file() && m.len() == a.byte_length)
@@ -571,11 +571,6 @@ impl BundleWriter {
     }
 }
 
-/// The extension of an asset's payload file: `bin` for meshes, `ktx2` for textures.
-fn payload_ext(a: &Asset) -> &'static str {
-    if a.payload.mesh().is_some() { "bin" } else { "ktx2" }
-}
-
 /// Points assets whose payloads are the same bytes (BLAKE3, length and extension) at one file,
 /// named after the first of their ids, so a bundle stores them once (format 1.10); every other
 /// asset names its own content-derived file. Tiles are left out: a tile's entry is rebuilt from
@@ -584,7 +579,7 @@ fn payload_ext(a: &Asset) -> &'static str {
 fn share_identical_payloads(assets: &mut [Asset]) {
     let mut first: BTreeMap<(String, u64, &'static str), String> = BTreeMap::new();
     for a in assets.iter_mut().filter(|a| a.settings.tile().is_none()) {
-        let ext = payload_ext(a);
+        let ext = a.payload.file_extension();
         let owner = first.entry((a.blake3.clone(), a.byte_length, ext)).or_insert_with(|| a.id.clone());
         a.file = payload_file_name(owner, &a.blake3, ext);
     }
