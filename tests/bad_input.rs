@@ -519,3 +519,46 @@ fn hostile_sizes_are_refused_in_little_memory() {
         }
     }
 }
+
+/// A scalp that cannot take the hair is refused before anything is written, by file and place:
+/// a glTF without a skin, a skinned mesh without weights, a file that is not glTF, and roots
+/// that lie away from the scalp (named by strand, with the setting that allows more).
+#[test]
+fn a_scalp_that_cannot_take_the_hair_is_refused() {
+    let dir = Dir::new("bad_scalp");
+    let character = hikage_devkit::synth::character(40, 4, 3);
+    dir.write("head.hair", hikage_bake::strands::cyhair::encode(&character.hair, "skinned"));
+    dir.write("character.glb", &character.glb);
+    dir.write("torus.glb", hikage_devkit::synth::torus_glb(2.0, 0.5, 12, 8, (1.0, 1.0)));
+    let text = String::from_utf8_lossy(&character.glb[20..]).into_owned();
+    let unweighted = character.glb.clone();
+    let at = text.find("\"WEIGHTS_0\"").expect("the GLB names its weights") + 20;
+    let mut unweighted = unweighted;
+    unweighted[at..at + 11].copy_from_slice(b"\"WEIGHTS_9\"");
+    dir.write("unweighted.glb", &unweighted);
+    dir.write("text.glb", b"solid nothing");
+    let mut far = character.hair.clone();
+    let first_of_strand_3: usize = far.segments[..3].iter().map(|&s| s as usize + 1).sum();
+    for p in &mut far.points[first_of_strand_3..=first_of_strand_3 + far.segments[3] as usize] {
+        p[0] += 30.0;
+    }
+    dir.write("far.hair", hikage_bake::strands::cyhair::encode(&far, "one strand moved aside"));
+    let cases: [(&str, &str, &[&str]); 4] = [
+        ("head.hair", "torus.glb", &["torus.glb", "a node with a mesh and a skin"]),
+        ("head.hair", "unweighted.glb", &["unweighted.glb", "primitive 0", "has no WEIGHTS_0"]),
+        ("head.hair", "text.glb", &["text.glb"]),
+        ("far.hair", "character.glb", &["far.hair", "strand 3", "farther than", "scalp_distance"]),
+    ];
+    for (hair, scalp, needles) in cases {
+        let args = ["strands", hair, "--out", "b", "--scalp", scalp];
+        let out = dir.run_expecting(&args, 1);
+        let err = stderr(&out);
+        assert!(needles.iter().all(|n| err.contains(n)), "{}", dir.explain(&args, &out, needles[0]));
+        assert!(!dir.path("b/bundle.ron").exists());
+    }
+    // Allowed once the distance says so.
+    dir.run(&["strands", "far.hair", "--out", "b", "--scalp", "character.glb", "--scalp-distance", "40"]);
+    dir.run(&["validate", "b"]);
+    let out = dir.run_expecting(&["strands", "head.hair", "--out", "c", "--scalp-distance", "1"], 1);
+    assert!(stderr(&out).contains("no scalp"), "{}", stderr(&out));
+}

@@ -16,6 +16,7 @@ mod gpu_fit;
 mod gpu_hair;
 mod gpu_horizon;
 mod gpu_relief;
+mod gpu_skin;
 mod gpu_stream;
 mod hostile;
 mod shard;

@@ -27,6 +27,7 @@
 //! ```
 
 pub mod bc;
+pub mod binding;
 pub mod budget;
 mod bundle;
 pub mod diff;
@@ -48,14 +49,16 @@ mod version;
 mod writer;
 pub mod zstd;
 
+pub use binding::{Scalp, StrandBinding};
 pub use budget::{Budget, Limit as BudgetLimit};
 pub use bundle::{Bundle, READERS_LOCK_FILE, decode_mesh};
 pub use error::BundleError;
 pub use limits::Limits;
 pub use manifest::{
-    AmbientOcclusionSettings, Asset, AssetKind, CURVATURE_STREAMS, CurvatureSettings, EdgeMode, HeightfieldSettings,
-    HorizonSettings, MANIFEST_FILE, Manifest, MaxMipSettings, Payload, ReliefSettings, STRANDS_RECORD_BYTES,
-    STRANDS_STREAMS, Settings, StrandsSettings, Stream, TilePlacement,
+    AmbientOcclusionSettings, Asset, AssetKind, BINDING_STREAMS, CURVATURE_STREAMS, CurvatureSettings, EdgeMode,
+    HairBindingSettings, HeightfieldSettings, HorizonSettings, MANIFEST_FILE, Manifest, MaxMipSettings, Payload,
+    ReliefSettings, SCALP_STREAMS, STRANDS_RECORD_BYTES, STRANDS_STREAMS, ScalpSettings, Settings, StrandsSettings,
+    Stream, TilePlacement,
 };
 pub use mesh::{Accessor, ComponentType, MeshData, MeshDesc};
 pub use names::{check_asset_id, is_payload_file_of, is_valid_asset_id, payload_file_name};

@@ -70,6 +70,18 @@ pub enum AssetKind {
     /// strand's index in the source file). Strands are stored in a fixed shuffled order so the
     /// first strands of [`StrandsSettings::levels`] are an even thinning (levels of detail).
     Strands,
+    /// Where each strand of a `Strands` asset is rooted on a skinned scalp (since format 1.11):
+    /// one element per strand, in strand-id order (the source file's), streams
+    /// ([`BINDING_STREAMS`]) `triangle` (U32, a triangle of the [`AssetKind::Scalp`] its
+    /// settings name) and `barycentric` (U16 × 2 unorm: the weights of the triangle's second
+    /// and third vertex; the first's is 1 − both). 8 bytes a strand.
+    HairBinding,
+    /// The skinned triangles hair is bound to (since format 1.11): the bind-pose scalp, in the
+    /// hair's own frame, with U32 triangle indices and streams ([`SCALP_STREAMS`]) `position`
+    /// (F32 × 3), `joints` (U16 × 4, integers: indices into [`ScalpSettings::joints`]),
+    /// `weights` (U16 × 4 unorm, summing to 1) and `reach` (F32: the farthest any strip bound
+    /// to a triangle of this vertex lies from its root's surface point, for the light's box).
+    Scalp,
     /// A texture with no hikage-specific meaning (tests, user data).
     Texture,
     /// A mesh with no hikage-specific meaning.
@@ -79,7 +91,10 @@ pub enum AssetKind {
 impl AssetKind {
     /// True when assets of this kind carry a mesh payload; the others carry a texture.
     pub fn is_mesh(self) -> bool {
-        matches!(self, AssetKind::Curvature | AssetKind::Strands | AssetKind::Mesh)
+        matches!(
+            self,
+            AssetKind::Curvature | AssetKind::Strands | AssetKind::HairBinding | AssetKind::Scalp | AssetKind::Mesh
+        )
     }
 
     /// The vertex streams a mesh of this kind is written with, in payload order: the one table
@@ -88,6 +103,8 @@ impl AssetKind {
         match self {
             AssetKind::Curvature => &CURVATURE_STREAMS,
             AssetKind::Strands => &STRANDS_STREAMS,
+            AssetKind::HairBinding => &BINDING_STREAMS,
+            AssetKind::Scalp => &SCALP_STREAMS,
             _ => &[],
         }
     }
@@ -108,6 +125,8 @@ impl AssetKind {
             AssetKind::Relief => "relief",
             AssetKind::MaxMip => "max_mip",
             AssetKind::Strands => "strands",
+            AssetKind::HairBinding => "hair_binding",
+            AssetKind::Scalp => "scalp",
             AssetKind::Texture => "texture",
             AssetKind::Mesh => "mesh",
         }
@@ -157,6 +176,22 @@ pub const STRANDS_STREAMS: [Stream; 6] = [
     strand_stream("color", ComponentType::U8, 4),
     strand_stream("strand", ComponentType::U16, 2),
     strand_stream("strand_id", ComponentType::U32, 1),
+];
+
+const fn binding_stream(name: &'static str, component: ComponentType, components: u8) -> Stream {
+    Stream { name, component, components, since: (1, 11) }
+}
+
+/// The streams of a `HairBinding` mesh ([`AssetKind::HairBinding`]): one element per strand.
+pub const BINDING_STREAMS: [Stream; 2] =
+    [binding_stream("triangle", ComponentType::U32, 1), binding_stream("barycentric", ComponentType::U16, 2)];
+
+/// The streams of a `Scalp` mesh ([`AssetKind::Scalp`]).
+pub const SCALP_STREAMS: [Stream; 4] = [
+    binding_stream("position", ComponentType::F32, 3),
+    binding_stream("joints", ComponentType::U16, 4),
+    binding_stream("weights", ComponentType::U16, 4),
+    binding_stream("reach", ComponentType::F32, 1),
 ];
 
 /// Bytes of one strand point's record in a `Strands` mesh (the streams of [`STRANDS_STREAMS`]
@@ -239,6 +274,10 @@ pub enum Settings {
     MaxMip(MaxMipSettings),
     /// Hair strips.
     Strands(StrandsSettings),
+    /// Strand roots bound to a scalp.
+    HairBinding(HairBindingSettings),
+    /// A skinned scalp.
+    Scalp(ScalpSettings),
 }
 
 impl Settings {
@@ -257,16 +296,20 @@ impl Settings {
             Settings::Relief(_) => AssetKind::Relief,
             Settings::MaxMip(_) => AssetKind::MaxMip,
             Settings::Strands(_) => AssetKind::Strands,
+            Settings::HairBinding(_) => AssetKind::HairBinding,
+            Settings::Scalp(_) => AssetKind::Scalp,
         }
     }
 
     /// Ids of the other assets these settings name and a reader needs with them: a horizon's
-    /// heightfield, an ambient-occlusion map's horizon, relief maps' max-mip pyramid.
+    /// heightfield, an ambient-occlusion map's horizon, relief maps' max-mip pyramid, a hair
+    /// binding's strands and scalp.
     pub fn depends_on(&self) -> Vec<&str> {
         match self {
             Settings::Horizon(h) => vec![h.heightfield.as_str()],
             Settings::AmbientOcclusion(a) => vec![a.horizon.as_str()],
             Settings::Relief(r) => vec![r.max_mip.as_str()],
+            Settings::HairBinding(b) => vec![b.strands.as_str(), b.scalp.as_str()],
             _ => Vec::new(),
         }
     }
@@ -308,6 +351,32 @@ settings_accessors! {
     relief => Relief(ReliefSettings),
     max_mip => MaxMip(MaxMipSettings),
     strands => Strands(StrandsSettings),
+    hair_binding => HairBinding(HairBindingSettings),
+    scalp => Scalp(ScalpSettings),
+}
+
+/// How a hair's strands were bound to a skinned scalp: each root to the nearest point of the
+/// scalp's triangles. At run time a strand moves rigidly with its triangle: its points keep
+/// their place in the frame of the deformed triangle (origin at the bound point, axes from the
+/// first edge and the face normal).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HairBindingSettings {
+    /// Id of the `Strands` asset whose strands are bound (one binding element per strand id).
+    pub strands: String,
+    /// Id of the `Scalp` asset the triangles belong to.
+    pub scalp: String,
+    /// The farthest any root lies from its bound surface point (world units).
+    pub max_distance: f32,
+}
+
+/// A skinned scalp: the triangles of a glTF skin's mesh that hair roots were bound to.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ScalpSettings {
+    /// The skin's joints, in the skin's order (a vertex's `joints` index this list): the glTF
+    /// nodes' names, `node N` for a node without one. A game's joint matrices come in this order.
+    pub joints: Vec<String>,
+    /// Triangles of the source mesh (those kept are the ones a root is bound to).
+    pub source_triangles: u32,
 }
 
 /// How hair strips were baked (seed 004). Widths and opacities are those of a strand with the

@@ -275,6 +275,35 @@ impl MeshData {
         Ok(())
     }
 
+    /// Appends a stream of `components` integers per vertex of `component`, as little-endian
+    /// `data` (integer streams: joint indices, triangle indices), each element padded to a
+    /// multiple of 4 bytes.
+    pub fn push_raw(
+        &mut self,
+        name: &str,
+        component: ComponentType,
+        components: u8,
+        data: &[u8],
+    ) -> Result<(), BundleError> {
+        let element = component.bytes() * components as usize;
+        if data.len() != element * self.desc.vertex_count as usize || !(1..=4).contains(&components) {
+            return Err(BundleError::InvalidData(format!(
+                "attribute `{name}`: expected {} bytes of 1 to 4 components, found {} of {components}",
+                element * self.desc.vertex_count as usize,
+                data.len()
+            )));
+        }
+        let stride = element.div_ceil(4) * 4;
+        let padded: Vec<u8> = data
+            .chunks_exact(element)
+            .flat_map(|e| e.iter().copied().chain(std::iter::repeat_n(0, stride - element)))
+            .collect();
+        let mut a = self.push_stream(name, component, components, self.desc.vertex_count, &padded);
+        a.stride = stride as u32;
+        self.desc.attributes.push(a);
+        Ok(())
+    }
+
     /// Sets the triangle-list index stream (U32).
     pub fn set_indices(&mut self, indices: &[u32]) -> Result<(), BundleError> {
         if let Some(&bad) = indices.iter().find(|&&i| i >= self.desc.vertex_count) {

@@ -103,7 +103,34 @@ pub fn validate_with_limits(dir: &Path, limits: Limits) -> Result<Report, Bundle
 
 fn check_asset(bundle: &Bundle, asset: &Asset) -> Result<(), BundleError> {
     let bytes = bundle.read_payload(asset)?;
-    check_payload(asset, &bytes, &bundle.payload_path(asset), bundle.limits())
+    check_payload(asset, &bytes, &bundle.payload_path(asset), bundle.limits())?;
+    match &asset.settings {
+        crate::Settings::HairBinding(b) => check_binding(bundle, asset, b),
+        _ => Ok(()),
+    }
+}
+
+/// A hair binding against the assets it names: one binding per strand of its strands, each on
+/// a triangle of its scalp, every scalp joint in the scalp's joint list.
+fn check_binding(bundle: &Bundle, asset: &Asset, b: &crate::HairBindingSettings) -> Result<(), BundleError> {
+    let fail =
+        |message: String| BundleError::Payload { path: bundle.payload_path(asset), asset: asset.id.clone(), message };
+    let strands = bundle
+        .asset(&b.strands)?
+        .settings
+        .strands()
+        .ok_or_else(|| fail(format!("`strands` names {}, which is not a strands asset", b.strands)))?;
+    let scalp_asset = bundle.asset(&b.scalp)?;
+    let joints = scalp_asset
+        .settings
+        .scalp()
+        .ok_or_else(|| fail(format!("`scalp` names {}, which is not a scalp asset", b.scalp)))?
+        .joints
+        .len();
+    let scalp =
+        crate::Scalp::read(&bundle.read_mesh(&b.scalp)?).map_err(|m| fail(format!("scalp {}: {m}", b.scalp)))?;
+    let bindings = crate::binding::read_binding(&bundle.read_mesh(&asset.id)?).map_err(fail)?;
+    scalp.check(&bindings, joints, strands.strands).map_err(fail)
 }
 
 /// Checks the payload `bytes` of `asset` (from `path`) the way a reader relies on it: a texture

@@ -23,8 +23,9 @@ impl FormatVersion {
     /// block-compressed texture formats `Bc4RUnorm` and `Bc5RgUnorm`; 1.8 the manifest's
     /// optional `budget`; 1.9 tile sets (the tiles of a map written as one table, see
     /// [`crate::tiles`]), levels of detail of tiles and the tile placement of occlusion maps; 1.10 one file
-    /// shared by assets whose payloads are the same bytes, named after the first of their ids.
-    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 10 };
+    /// shared by assets whose payloads are the same bytes, named after the first of their ids;
+    /// 1.11 the `HairBinding` and `Scalp` kinds (strands bound to a skinned scalp).
+    pub const CURRENT: FormatVersion = FormatVersion { major: 1, minor: 11 };
 }
 
 impl fmt::Display for FormatVersion {

@@ -128,6 +128,7 @@ mod wgsl_tests {
             ("surface", format!("{SCENE_WGSL}\n{horizon}\n{}", include_str!("shaders/surface.wgsl"))),
             ("relief", relief.to_string()),
             ("hair", crate::hair::HAIR_WGSL.to_string()),
+            ("hair skin", crate::hair::HAIR_SKIN_WGSL.to_string()),
             ("relief material", format!("{SCENE_WGSL}\n{relief}\n{}", include_str!("shaders/relief_material.wgsl"))),
         ]
     }

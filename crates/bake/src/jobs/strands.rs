@@ -9,13 +9,15 @@ use super::source::deserialize_flat;
 use super::{BakedAsset, Baker, JobContext};
 use crate::error::BakeError;
 use crate::strands::strips::{self, StripSets};
-use crate::strands::{self, Strands, auto, ribbons};
+use crate::strands::{self, Strands, auto, bind, ribbons};
 
 /// Version of the strands job; part of the input hash. 3: point records (format 1.5), colour
-/// settings, the visibility rule; 4: quantized ribbon streams (format 1.10).
-pub const ALGORITHM_VERSION: u32 = 4;
+/// settings, the visibility rule; 4: quantized ribbon streams (format 1.10); 5: binding to a
+/// skinned scalp (format 1.11).
+pub const ALGORITHM_VERSION: u32 = 5;
 
-/// A strands bake. Asset ids: `<id>.strips`, and `<id>.ribbons` with `ribbons`.
+/// A strands bake. Asset ids: `<id>.strips`, `<id>.ribbons` with `ribbons`, and `<id>.binding`
+/// with `<id>.scalp` with `scalp`.
 ///
 /// Widths (full, world units) and opacities are those of a strand with the source's default
 /// thickness and transparency; each strand's own values scale them. Absent: the shading set is
@@ -74,6 +76,16 @@ pub struct StrandsOptions {
     /// Linear RGB at the tip (see `root_color`).
     #[cfg_attr(feature = "clap", arg(long, value_name = "R,G,B", value_parser = parse_rgb))]
     pub tip_color: Option<[f32; 3]>,
+    /// A skinned glTF (`.glb`/`.gltf`) to bind each strand's root to: the mesh of its first
+    /// skinned node, in the hair's own frame (bind pose). Adds `<id>.binding` (the nearest
+    /// triangle and barycentric weights, 8 bytes a strand) and `<id>.scalp` (the triangles bound
+    /// to, with their joints and weights); at run time each strand follows its triangle rigidly.
+    #[cfg_attr(feature = "clap", arg(long, value_name = "GLTF"))]
+    pub scalp: Option<PathBuf>,
+    /// The farthest a root may lie from the scalp, world units (default: 2% of the hair's
+    /// bounding-box diagonal); a root farther away is an error naming the strand.
+    #[cfg_attr(feature = "clap", arg(long, value_name = "DISTANCE"))]
+    pub scalp_distance: Option<f32>,
     /// Payload compression: `Auto` (a zstd level per kind of payload, `--zstd auto`), `Zstd(level)`
     /// (1–22), or `None` (`--zstd 0`).
     #[cfg_attr(
@@ -115,6 +127,64 @@ impl StrandsJob {
     /// Id of the ribbon mesh.
     pub fn ribbons_id(&self) -> String {
         format!("{}.ribbons", self.id)
+    }
+
+    /// Id of the strands' binding to the scalp.
+    pub fn binding_id(&self) -> String {
+        format!("{}.binding", self.id)
+    }
+
+    /// Id of the scalp the strands are bound to.
+    pub fn scalp_id(&self) -> String {
+        format!("{}.scalp", self.id)
+    }
+
+    /// The binding of `s` to the scalp, when the job has one: the assets `<id>.binding` and
+    /// `<id>.scalp`. `pad` is the widest half strip width (for the scalp's reach).
+    fn bind(&self, s: &Strands, pad: f32, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
+        let Some(scalp) = &self.options.scalp else { return Ok(Vec::new()) };
+        let path = ctx.base_dir.join(scalp);
+        let mesh = crate::mesh::gltf::load_skinned(&path, crate::mesh::MeshLimits::default())?;
+        let (mut lo, mut hi) = (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY));
+        for &p in &s.points {
+            (lo, hi) = (lo.min(p.into()), hi.max(p.into()));
+        }
+        let limit = self.options.scalp_distance.unwrap_or(0.02 * (hi - lo).length().max(0.0));
+        let bound = bind::bind(s, &mesh, limit as f64, pad).map_err(|far| {
+            let how = match far.distance {
+                Some(d) => format!("lies {d:.6} from the scalp's nearest point"),
+                None => "has no scalp triangle near it".into(),
+            };
+            BakeError::input(
+                ctx.base_dir.join(&self.input),
+                Some(format!("strand {}", far.strand)),
+                format!(
+                    "its root {how}, farther than {limit} (the hair and {} must share the bind pose's frame; set scalp_distance to allow more)",
+                    scalp.display()
+                ),
+            )
+        })?;
+        let binding = hikage_bundle::binding::binding_mesh(&bound.bindings)?;
+        let scalp_mesh = bound.scalp.to_mesh()?;
+        Ok(vec![
+            BakedAsset {
+                id: self.binding_id(),
+                settings: Settings::HairBinding(hikage_bundle::HairBindingSettings {
+                    strands: self.strips_id(),
+                    scalp: self.scalp_id(),
+                    max_distance: bound.max_distance,
+                }),
+                payload: binding.into(),
+            },
+            BakedAsset {
+                id: self.scalp_id(),
+                settings: Settings::Scalp(hikage_bundle::ScalpSettings {
+                    joints: mesh.joint_names,
+                    source_triangles: mesh.triangles.len() as u32,
+                }),
+                payload: scalp_mesh.into(),
+            },
+        ])
     }
 
     /// The sets the job asks for on this source.
@@ -228,7 +298,13 @@ impl Baker for StrandsJob {
     }
 
     fn inputs(&self, base_dir: &Path) -> Vec<PathBuf> {
-        vec![base_dir.join(&self.input)]
+        let mut inputs = vec![base_dir.join(&self.input)];
+        if let Some(scalp) = &self.options.scalp {
+            let scalp = base_dir.join(scalp);
+            inputs.extend(crate::mesh::gltf::external_files(&scalp));
+            inputs.insert(1, scalp);
+        }
+        inputs
     }
 
     fn outputs(&self) -> Vec<String> {
@@ -236,12 +312,15 @@ impl Baker for StrandsJob {
         if self.options.ribbons {
             out.push(self.ribbons_id());
         }
+        if self.options.scalp.is_some() {
+            out.extend([self.binding_id(), self.scalp_id()]);
+        }
         out
     }
 
     fn canonical_settings(&self) -> String {
         format!(
-            "shading=({:?},{:?});opacity=({:?},{:?});auto={:?};taper={:?};ribbons={};color={:?};root={:?};tip={:?}",
+            "shading=({:?},{:?});opacity=({:?},{:?});auto={:?};taper={:?};ribbons={};color={:?};root={:?};tip={:?};scalp={};scalp_distance={:?}",
             self.options.shading_width,
             self.options.shading_alpha,
             self.options.opacity_width,
@@ -251,7 +330,9 @@ impl Baker for StrandsJob {
             self.options.ribbons,
             self.options.color,
             self.options.root_color,
-            self.options.tip_color
+            self.options.tip_color,
+            self.options.scalp.is_some(),
+            self.options.scalp_distance
         )
     }
 
@@ -283,6 +364,14 @@ impl Baker for StrandsJob {
                 return Err(format!("{name} must be linear RGB in [0, 1], found {c:?}"));
             }
         }
+        if let Some(d) = self.options.scalp_distance
+            && !(d.is_finite() && d >= 0.0)
+        {
+            return Err(format!("scalp_distance must be finite and not negative, found {d}"));
+        }
+        if self.options.scalp_distance.is_some() && self.options.scalp.is_none() {
+            return Err("scalp_distance is set but no scalp is given".into());
+        }
         if !(0.0..=1.0).contains(&self.options.taper) {
             return Err(format!("taper must be in [0, 1], found {}", self.options.taper));
         }
@@ -300,7 +389,9 @@ impl Baker for StrandsJob {
     fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
         let path = ctx.base_dir.join(&self.input);
         let s = strands::load(&path)?;
-        self.check_visible(&s, &self.sets(&s), &path)
+        let sets = self.sets(&s);
+        self.check_visible(&s, &sets, &path)?;
+        self.bind(&s, 0.0, ctx).map(drop)
     }
 
     fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
@@ -328,6 +419,11 @@ impl Baker for StrandsJob {
         if let Some(mesh) = ribbons {
             out.push(BakedAsset { id: self.ribbons_id(), settings: Settings::Generic, payload: mesh.into() });
         }
+        let widest = match &out[0].settings {
+            Settings::Strands(st) => st.max_width * (sets.opacity.0 / sets.shading.0).max(1.0),
+            _ => unreachable!("the strips come first"),
+        };
+        out.extend(self.bind(&s, 0.5 * widest, ctx)?);
         (ctx.progress)(2, 2);
         Ok(out)
     }

@@ -39,6 +39,22 @@ struct Root {
     accessors: Vec<Accessor>,
     #[serde(default)]
     meshes: Vec<MeshDef>,
+    #[serde(default)]
+    nodes: Vec<Node>,
+    #[serde(default)]
+    skins: Vec<Skin>,
+}
+
+#[derive(Deserialize)]
+struct Node {
+    name: Option<String>,
+    mesh: Option<usize>,
+    skin: Option<usize>,
+}
+
+#[derive(Deserialize)]
+struct Skin {
+    joints: Vec<usize>,
 }
 
 #[derive(Deserialize)]
@@ -87,8 +103,8 @@ struct Primitive {
     mode: Option<u32>,
 }
 
-/// Reads a `.glb` or `.gltf` file.
-pub fn load(path: &Path, limits: MeshLimits) -> Result<Mesh, BakeError> {
+/// The parsed JSON of a `.glb` or `.gltf` file and its buffers.
+fn open(path: &Path, limits: MeshLimits) -> Result<(Root, Vec<Vec<u8>>), BakeError> {
     let bytes = super::read_limited(path, limits.max_bytes, "glTF size")?;
     let bad = |place: Option<String>, m: String| BakeError::input(path, place, m);
     let (json, bin) = if is_glb(&bytes) { split_glb(&bytes).map_err(|m| bad(None, m))? } else { (&bytes[..], None) };
@@ -110,6 +126,13 @@ pub fn load(path: &Path, limits: MeshLimits) -> Result<Mesh, BakeError> {
         }
         buffers.push(data);
     }
+    Ok((root, buffers))
+}
+
+/// Reads a `.glb` or `.gltf` file.
+pub fn load(path: &Path, limits: MeshLimits) -> Result<Mesh, BakeError> {
+    let bad = |place: Option<String>, m: String| BakeError::input(path, place, m);
+    let (root, buffers) = open(path, limits)?;
     let mesh = root.meshes.first().ok_or_else(|| bad(None, "expected at least one mesh".into()))?;
     let doc = Document { root: &root, buffers: &buffers };
     let mut out =
@@ -164,6 +187,129 @@ pub fn load(path: &Path, limits: MeshLimits) -> Result<Mesh, BakeError> {
     }
     if out.triangles.is_empty() {
         return Err(bad(Some("mesh 0".into()), "expected at least one triangle".into()));
+    }
+    Ok(out)
+}
+
+/// A skinned triangle mesh: what hair is bound to.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SkinnedMesh {
+    /// Bind-pose positions (the mesh's own space).
+    pub positions: Vec<[f32; 3]>,
+    /// Four joints per vertex, indices into `joint_names`.
+    pub joints: Vec<[u16; 4]>,
+    /// Their weights, normalized to sum to 1.
+    pub weights: Vec<[f32; 4]>,
+    /// Triangles over the vertices.
+    pub triangles: Vec<[u32; 3]>,
+    /// The skin's joints in its order: the nodes' names (`node N` for a node without one).
+    pub joint_names: Vec<String>,
+}
+
+/// Reads the skinned mesh of a `.glb` or `.gltf`: the mesh of the first node that has both a
+/// mesh and a skin, with `POSITION`, `JOINTS_0` and `WEIGHTS_0` on every primitive. Positions are
+/// the mesh's own (bind-pose) space, as glTF skinning uses them; node transforms are ignored.
+pub fn load_skinned(path: &Path, limits: MeshLimits) -> Result<SkinnedMesh, BakeError> {
+    let bad = |place: Option<String>, m: String| BakeError::input(path, place, m);
+    let (root, buffers) = open(path, limits)?;
+    let (node, mesh_index, skin_index) = root
+        .nodes
+        .iter()
+        .enumerate()
+        .find_map(|(n, node)| Some((n, node.mesh?, node.skin?)))
+        .ok_or_else(|| bad(None, "expected a node with a mesh and a skin (a skinned scalp)".into()))?;
+    let skin = root
+        .skins
+        .get(skin_index)
+        .ok_or_else(|| bad(Some(format!("node {node}")), format!("skin {skin_index} does not exist")))?;
+    if skin.joints.is_empty() || skin.joints.len() > u16::MAX as usize {
+        let n = skin.joints.len();
+        return Err(bad(Some(format!("skin {skin_index}")), format!("expected 1 to 65535 joints, found {n}")));
+    }
+    let joint_names = skin
+        .joints
+        .iter()
+        .map(|&j| match root.nodes.get(j) {
+            Some(n) => Ok(n.name.clone().unwrap_or_else(|| format!("node {j}"))),
+            None => Err(bad(Some(format!("skin {skin_index}")), format!("joint node {j} does not exist"))),
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let mesh = root
+        .meshes
+        .get(mesh_index)
+        .ok_or_else(|| bad(Some(format!("node {node}")), format!("mesh {mesh_index} does not exist")))?;
+    let doc = Document { root: &root, buffers: &buffers };
+    let mut out = SkinnedMesh {
+        positions: Vec::new(),
+        joints: Vec::new(),
+        weights: Vec::new(),
+        triangles: Vec::new(),
+        joint_names,
+    };
+    for (p, prim) in mesh.primitives.iter().enumerate() {
+        let place = |what: &str| Some(format!("mesh {mesh_index}, primitive {p}{what}"));
+        let mode = prim.mode.unwrap_or(4);
+        if mode != 4 {
+            return Err(bad(place(""), format!("expected triangles (mode 4), found mode {mode}")));
+        }
+        let read = |name: &str, kind: &str| {
+            let a = prim
+                .attributes
+                .get(name)
+                .copied()
+                .ok_or_else(|| bad(place(""), format!("has no {name}; binding hair needs a skinned mesh")))?;
+            doc.read(a, kind).map_err(|m| bad(place(&format!(" {name}")), m))
+        };
+        let positions = read("POSITION", "VEC3")?;
+        let (joints, weights) = (read("JOINTS_0", "VEC4")?, read("WEIGHTS_0", "VEC4")?);
+        let count = positions.len() / 3;
+        if joints.len() / 4 != count || weights.len() / 4 != count {
+            return Err(bad(place(""), format!("POSITION, JOINTS_0 and WEIGHTS_0 must have {count} elements each")));
+        }
+        let base = out.positions.len() as u64;
+        if base + count as u64 > u32::MAX as u64 {
+            return Err(bad(place(""), "more than 4 billion vertices".into()));
+        }
+        for (v, ((pos, j), w)) in
+            positions.chunks_exact(3).zip(joints.chunks_exact(4)).zip(weights.chunks_exact(4)).enumerate()
+        {
+            let sum: f64 = w.iter().sum();
+            if sum.is_nan() || sum <= 0.0 || w.iter().any(|&x| x < 0.0) {
+                return Err(bad(
+                    place(&format!(" vertex {v}")),
+                    format!("joint weights {w:?} must be ≥ 0 with a positive sum"),
+                ));
+            }
+            if let Some(&bad_joint) =
+                j.iter().zip(w).find(|(j, w)| **w > 0.0 && **j as usize >= out.joint_names.len()).map(|(j, _)| j)
+            {
+                return Err(bad(
+                    place(&format!(" vertex {v}")),
+                    format!("names joint {bad_joint}, but skin {skin_index} has {}", out.joint_names.len()),
+                ));
+            }
+            out.positions.push([pos[0] as f32, pos[1] as f32, pos[2] as f32]);
+            out.joints.push(std::array::from_fn(|k| if w[k] > 0.0 { j[k] as u16 } else { 0 }));
+            out.weights.push(std::array::from_fn(|k| (w[k] / sum) as f32));
+        }
+        let indices: Vec<u64> = match prim.indices {
+            Some(a) => {
+                doc.read(a, "SCALAR").map_err(|m| bad(place(" indices"), m))?.into_iter().map(|i| i as u64).collect()
+            }
+            None => (0..count as u64).collect(),
+        };
+        if !indices.len().is_multiple_of(3) {
+            return Err(bad(place(" indices"), format!("expected a multiple of 3 indices, found {}", indices.len())));
+        }
+        for (t, tri) in indices.chunks_exact(3).enumerate() {
+            if let Some(&i) = tri.iter().find(|&&i| i >= count as u64) {
+                return Err(bad(place(" indices"), format!("triangle {t} names vertex {i}, but there are {count}")));
+            }
+            out.triangles.push(std::array::from_fn(|k| (base + tri[k]) as u32));
+        }
+    }
+    if out.triangles.is_empty() {
+        return Err(bad(Some(format!("mesh {mesh_index}")), "expected at least one triangle".into()));
     }
     Ok(out)
 }
@@ -287,6 +433,7 @@ impl Document<'_> {
         let components = match kind {
             "SCALAR" => 1,
             "VEC2" => 2,
+            "VEC4" => 4,
             _ => 3,
         };
         let size = match (kind, a.component_type, a.normalized) {
@@ -295,6 +442,9 @@ impl Document<'_> {
             ("SCALAR", 5125, false) => 4,
             ("VEC2", 5121, true) => 1,
             ("VEC2", 5123, true) => 2,
+            // JOINTS_0 (integers) and WEIGHTS_0 (normalized).
+            ("VEC4", 5121, _) => 1,
+            ("VEC4", 5123, _) => 2,
             (_, 5126, _) if kind != "SCALAR" => 4,
             (_, t, n) => return Err(at(format!("component type {t} (normalized: {n}) is not supported for {kind}"))),
         };

@@ -2,6 +2,7 @@
 //! read from Cem Yuksel's `.hair` format ([`cyhair`]) or OBJ polylines ([`obj`]).
 
 pub mod auto;
+pub mod bind;
 pub mod cyhair;
 pub mod obj;
 pub mod ribbons;

@@ -22,6 +22,7 @@
 
 pub mod reference;
 mod renderer;
+mod skin;
 
 use glam::camera::rh::proj::directx;
 use glam::camera::rh::view::look_to_mat4;
@@ -30,9 +31,15 @@ use glam::{Mat4, Vec3};
 pub use renderer::{
     AUTO_LOD_PIXELS, HairFrame, HairLod, HairOptions, HairRenderer, HairStyle, HairUniform, Lod, Lookup,
 };
+pub use skin::{HairSkin, SKIN_WORKGROUP};
 
 /// WGSL of the passes and of `hair_visibility` for receivers (see the module docs).
-pub const HAIR_WGSL: &str = include_str!("../shaders/hair.wgsl");
+pub const HAIR_WGSL: &str =
+    concat!(include_str!("../shaders/hair_octahedral.wgsl"), include_str!("../shaders/hair.wgsl"));
+
+/// WGSL of the skinning pass ([`HairSkin`]): strand records posed by a skinned scalp.
+pub const HAIR_SKIN_WGSL: &str =
+    concat!(include_str!("../shaders/hair_octahedral.wgsl"), include_str!("../shaders/hair_skin.wgsl"));
 
 /// Opacity layers per texel.
 pub const LAYERS: usize = 4;

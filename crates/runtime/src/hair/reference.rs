@@ -397,3 +397,60 @@ mod tests {
         }
     }
 }
+
+/// `skin_posed_vertex`: scalp vertex `v` skinned by `joints` (Σ weight × joint matrix ×
+/// bind-pose position, over the vertex's joints with a weight above 0).
+pub fn skin_posed_vertex(scalp: &hikage_bundle::Scalp, v: u32, joints: &[glam::Mat4]) -> Vec3 {
+    let p = Vec3::from(scalp.positions[v as usize]);
+    let (j, w) = (scalp.joints[v as usize], scalp.weights[v as usize]);
+    (0..4)
+        .filter(|&k| w[k] > 0.0)
+        .map(|k| w[k] * joints[(j[k] as usize).min(joints.len() - 1)].transform_point3(p))
+        .fold(Vec3::ZERO, |a, b| a + b)
+}
+
+/// `skin_frame`: the frame of triangle `(a, b, c)`: its first edge, the axis across, its normal.
+pub fn skin_frame(a: Vec3, b: Vec3, c: Vec3) -> glam::Mat3 {
+    let t = (b - a).normalize();
+    let n = (b - a).cross(c - a).normalize();
+    glam::Mat3::from_cols(t, n.cross(t), n)
+}
+
+/// The rigid motion of a strand bound by `binding` to `scalp` posed by `joints`, and where its
+/// bound surface point is posed: `(rotation, rest point, posed point)`, so a strand point `p`
+/// goes to `posed + rotation × (p − rest)`.
+pub fn skin_strand(
+    scalp: &hikage_bundle::Scalp,
+    binding: &hikage_bundle::StrandBinding,
+    joints: &[glam::Mat4],
+) -> (glam::Mat3, Vec3, Vec3) {
+    let tri = scalp.triangles[binding.triangle as usize];
+    let rest = tri.map(|v| Vec3::from(scalp.positions[v as usize]));
+    let posed = tri.map(|v| skin_posed_vertex(scalp, v, joints));
+    let w = binding.weights();
+    let rotation = skin_frame(posed[0], posed[1], posed[2]) * skin_frame(rest[0], rest[1], rest[2]).transpose();
+    let at = |p: [Vec3; 3]| w[0] * p[0] + w[1] * p[1] + w[2] * p[2];
+    (rotation, at(rest), at(posed))
+}
+
+/// `hair_skin`: every record posed by the triangle its strand is bound to (position and tangent
+/// moved rigidly; a record whose strand has no binding is kept as it is).
+pub fn hair_skin(
+    points: &[StrandPoint],
+    bindings: &[hikage_bundle::StrandBinding],
+    scalp: &hikage_bundle::Scalp,
+    joints: &[glam::Mat4],
+) -> Vec<StrandPoint> {
+    points
+        .iter()
+        .map(|p| {
+            let Some(b) = bindings.get(p.strand_id as usize) else { return *p };
+            let (rotation, rest, posed) = skin_strand(scalp, b, joints);
+            StrandPoint {
+                position: (posed + rotation * (Vec3::from(p.position) - rest)).to_array(),
+                tangent: (rotation * Vec3::from(p.tangent)).normalize().to_array(),
+                ..*p
+            }
+        })
+        .collect()
+}

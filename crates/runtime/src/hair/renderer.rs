@@ -221,6 +221,10 @@ pub struct HairFrame {
     /// passes, the composite and the opaque draw keep to it, and strip widths in pixels are
     /// the viewport's.
     pub viewport: Option<[u32; 4]>,
+    /// The box the strands lie in this frame, in the hair's frame (before `model`), when they
+    /// move within it: skinned hair's [`super::HairSkin::update`]. `None`: the asset's baked
+    /// bounds. Levels of detail and the blend's depth range are measured on it.
+    pub bounds: Option<(Vec3, Vec3)>,
 }
 
 impl HairFrame {
@@ -243,6 +247,7 @@ impl HairFrame {
             lod: HairLod::default(),
             style: HairStyle::default(),
             viewport: None,
+            bounds: None,
         }
     }
 }
@@ -505,7 +510,41 @@ impl HairRenderer {
     /// The world box around the hair drawn with `model`: the box of the asset's bounds carried
     /// by it.
     pub fn bounds_at(&self, model: Mat4) -> (Vec3, Vec3) {
-        let (lo, hi) = (Vec3::from(self.settings.bounds_min), Vec3::from(self.settings.bounds_max));
+        box_through(model, (Vec3::from(self.settings.bounds_min), Vec3::from(self.settings.bounds_max)))
+    }
+
+    /// The world box around the hair `frame` draws: its `bounds` (or the asset's) carried by
+    /// its model matrix.
+    fn frame_bounds(&self, frame: &HairFrame) -> (Vec3, Vec3) {
+        match frame.bounds {
+            Some(b) => box_through(frame.model, b),
+            None => self.bounds_at(frame.model),
+        }
+    }
+
+    /// Draws the records `skin` poses instead of the asset's own: the hair follows the
+    /// skinned scalp from then on (record the skin's pass before the hair's each frame, and
+    /// give each frame the skin's bounds). The skin must pose this renderer's strands.
+    pub fn follow(&mut self, skin: &super::HairSkin) -> Result<(), RuntimeError> {
+        if skin.points() != self.desc.vertex_count || !skin.asset_ids().contains(&self.assets[0]) {
+            return Err(RuntimeError::Asset {
+                asset: self.assets[0].clone(),
+                message: format!("the skin poses {:?}, not these strands", skin.asset_ids().last()),
+            });
+        }
+        self.buffer = skin.posed_records().clone();
+        for id in skin.asset_ids() {
+            if !self.assets.contains(id) {
+                self.assets.push(id.clone());
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The box of `(lo, hi)` carried by `model`.
+fn box_through(model: Mat4, (lo, hi): (Vec3, Vec3)) -> (Vec3, Vec3) {
+    {
         if model == Mat4::IDENTITY {
             return (lo, hi);
         }
@@ -519,7 +558,9 @@ impl HairRenderer {
             (a.min(p), b.max(p))
         })
     }
+}
 
+impl HairRenderer {
     /// The ids of the assets the renderer was built from (the strips): after a reload whose
     /// [`crate::Changes::touches`] them, build it again.
     pub fn asset_ids(&self) -> &[String] {
@@ -543,7 +584,7 @@ impl HairRenderer {
     /// The levels of detail `frame` draws: (camera, light).
     pub fn chosen_levels(&self, frame: &HairFrame) -> (u32, u32) {
         let levels = self.levels().len() as u32;
-        let (lo, hi) = self.bounds_at(frame.model);
+        let (lo, hi) = self.frame_bounds(frame);
         let model_width = model_width(frame.model);
         let centre = 0.5 * (lo + hi);
         // The widest a world length at the box's centre appears, in pixels, along the axes.
@@ -600,7 +641,7 @@ impl HairRenderer {
         let s = &self.settings;
         let ratio = |a: f32, b: f32| if b > 0.0 { a / b } else { 1.0 };
         // Distances from the eye to the hair's box: the nearest point and the farthest corner.
-        let (blo, bhi) = self.bounds_at(frame.model);
+        let (blo, bhi) = self.frame_bounds(frame);
         let model_width = model_width(frame.model);
         let near = (frame.eye.clamp(blo, bhi) - frame.eye).length();
         let far = (0..8)

@@ -89,16 +89,6 @@ struct HairPoint {
     drawn: bool,  // false: the segment from this point does not exist (last point of a strand)
 }
 
-// The unit vector of an octahedral encoding (hikage_bundle::strands::oct_encode).
-fn hair_oct_decode(e: vec2<f32>) -> vec3<f32> {
-    let f = e * 2.0 - 1.0;
-    var n = vec3<f32>(f.x, f.y, 1.0 - abs(f.x) - abs(f.y));
-    let t = max(-n.z, 0.0);
-    n.x = select(n.x + t, n.x - t, n.x >= 0.0);
-    n.y = select(n.y + t, n.y - t, n.y >= 0.0);
-    return normalize(n);
-}
-
 fn hair_srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
     return select(pow((c + 0.055) / 1.055, vec3<f32>(2.4)), c / 12.92, c <= vec3<f32>(0.04045));
 }
