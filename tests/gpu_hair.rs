@@ -417,6 +417,21 @@ fn the_blend_follows_the_sorted_composite_on_dense_hair() {
     eprintln!("falloff {:.2}: blend {blend:.4} RMS, one weight for all {one_weight:.4}", u.oit_falloff);
     assert!(u.oit_falloff > 2.0, "dense hair: {}", u.oit_falloff);
     assert!(blend < 0.035 && blend < 0.8 * one_weight, "blend {blend}, one weight {one_weight}");
+    // Under a light bright enough for highlights far above 1, no pixel resolves above 1: each
+    // fragment's shading saturates at 1 and the blend is a weighted mean of fragments.
+    let bright = HairUniform { light_color: [1.6, 1.5, 1.4, 0.0], specular: 1.0, ..u };
+    let (mut brightest, mut saturated) = (0.0f32, 0);
+    for p in
+        camera_reference(&arrays, &bright, &frame.light, &maps, ((size, size), points), Composite::OrderIndependent)
+            .iter()
+            .filter(|p| p[3] > 0.05)
+    {
+        let unpremultiplied = p[0].max(p[1]).max(p[2]) / p[3];
+        brightest = brightest.max(unpremultiplied);
+        saturated += (unpremultiplied > 0.999) as u32;
+    }
+    eprintln!("bright light: brightest unpremultiplied colour {brightest:.4}, {saturated} pixels saturated");
+    assert!(saturated > 0 && brightest <= 1.0 + 1e-5, "{brightest}");
 }
 
 /// Levels of detail on hair that moves: a head walking, turning and nodding with the camera

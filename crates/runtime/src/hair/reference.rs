@@ -339,7 +339,8 @@ pub fn hair_specular(t: Vec3, to_light: Vec3, to_eye: Vec3, power: f32) -> f32 {
 }
 
 /// `hair_kajiya_kay` with the light and material of `uniform`: diffuse by the sine between
-/// tangent and light and the specular lobe, both scaled by `visibility`; ambient unshadowed.
+/// tangent and light and the specular lobe, both scaled by `visibility`; ambient unshadowed;
+/// each channel saturating at 1.
 pub fn hair_kajiya_kay(
     uniform: &HairUniform,
     t: Vec3,
@@ -352,7 +353,7 @@ pub fn hair_kajiya_kay(
     let sin_l = (1.0 - tl * tl).max(0.0).sqrt();
     let direct = Vec3::from_slice(&uniform.light_color[..3]) * visibility;
     let spec = uniform.specular * hair_specular(t, to_light, to_eye, uniform.specular_power);
-    base * (Vec3::from_slice(&uniform.ambient[..3]) + direct * sin_l) + direct * spec
+    (base * (Vec3::from_slice(&uniform.ambient[..3]) + direct * sin_l) + direct * spec).min(Vec3::ONE)
 }
 
 /// `hair_oit_weight`: a fragment's weight in the order-independent blend, from its distance

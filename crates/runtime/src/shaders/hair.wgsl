@@ -248,11 +248,12 @@ fn hair_specular(t: vec3<f32>, to_light: vec3<f32>, to_eye: vec3<f32>, power: f3
 
 // Kajiya-Kay shading of a strand of colour `base`: diffuse by the sine between tangent and
 // light, the specular lobe, both scaled by the light's visibility; ambient light unshadowed.
+// Each channel saturates at 1, so the blend's weighted mean of fragments never resolves above 1.
 fn hair_kajiya_kay(t: vec3<f32>, to_light: vec3<f32>, to_eye: vec3<f32>, base: vec3<f32>, visibility: f32) -> vec3<f32> {
     let sin_l = sqrt(max(1.0 - dot(t, to_light) * dot(t, to_light), 0.0));
     let direct = hair.light_color.rgb * visibility;
     let spec = hair.specular * hair_specular(t, to_light, to_eye, hair.specular_power);
-    return base * (hair.ambient.rgb + direct * sin_l) + direct * spec;
+    return min(base * (hair.ambient.rgb + direct * sin_l) + direct * spec, vec3<f32>(1.0));
 }
 
 struct LightOut {
