@@ -164,7 +164,8 @@ pub struct HikageBundle {
     pub grids: Vec<Handle<Mesh>>,
     /// The heightfield ids of `grids`.
     pub grid_ids: Vec<String>,
-    /// Each `Strands` asset's records as read, by id (hair draws them with its own passes).
+    /// Each `Strands` asset's records as read, by id (hair draws them with its own passes), and
+    /// each `HairBinding` and `Scalp` asset (read by hikage-runtime's `HairSkin`; not meshes).
     pub strands: Vec<std::sync::Arc<hikage_runtime::CpuAsset>>,
 }
 
@@ -218,7 +219,15 @@ impl HikageBundle {
 
     /// The records of `Strands` asset `id`, as hikage-runtime's hair renderer reads them.
     pub fn strands(&self, id: &str) -> Option<&std::sync::Arc<hikage_runtime::CpuAsset>> {
-        self.strands.iter().find(|s| s.asset.id == id)
+        self.strands.iter().find(|s| s.asset.id == id && s.asset.kind == hikage_bundle::AssetKind::Strands)
+    }
+
+    /// `HairBinding` or `Scalp` asset `id` as read, for hikage-runtime's `HairSkin`.
+    pub fn hair_binding(&self, id: &str) -> Option<&std::sync::Arc<hikage_runtime::CpuAsset>> {
+        self.strands.iter().find(|s| {
+            s.asset.id == id
+                && matches!(s.asset.kind, hikage_bundle::AssetKind::HairBinding | hikage_bundle::AssetKind::Scalp)
+        })
     }
 
     /// The manifest entry of asset `id`: kind, settings, payload description.

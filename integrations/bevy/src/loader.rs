@@ -145,6 +145,11 @@ impl AssetLoader for BundleLoader {
                     bundle.images.push(context.add_labeled_asset(asset.id.clone(), image));
                     bundle.image_ids.push(asset.id.clone());
                 }
+                // A hair binding and its scalp are read by hikage-runtime's `HairSkin`, not drawn.
+                Payload::Mesh(_) if matches!(asset.kind, AssetKind::HairBinding | AssetKind::Scalp) => {
+                    let payload = hikage_runtime::PayloadData::Mesh(decoded_mesh(asset, bytes, &limits).map_err(&bad)?);
+                    bundle.strands.push(Arc::new(hikage_runtime::CpuAsset { asset: asset.clone(), payload }));
+                }
                 Payload::Mesh(_) => {
                     let data = decoded_mesh(asset, bytes, &limits).map_err(&bad)?;
                     let mesh = mesh(asset.kind, &data).map_err(&bad)?;

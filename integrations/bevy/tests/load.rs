@@ -97,6 +97,21 @@ fn write_bundle(dir: &Path) -> (Vec<f32>, Vec<StrandPoint>) {
         opacity_area: 0.01,
     };
     w.put_mesh("h.strips", Settings::Strands(settings), "x", &MeshData { desc: strands_desc(5), bytes }).unwrap();
+    // The strands bound to a one-triangle scalp: read as data, not made meshes.
+    let scalp = hikage_bundle::Scalp {
+        positions: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
+        joints: vec![[0, 0, 0, 0]; 3],
+        weights: vec![[1.0, 0.0, 0.0, 0.0]; 3],
+        reach: vec![5.0; 3],
+        triangles: vec![[0, 1, 2]],
+    };
+    let scalp_settings = hikage_bundle::ScalpSettings { joints: vec!["root".into()], source_triangles: 1 };
+    w.put_mesh("h.scalp", Settings::Scalp(scalp_settings), "x", &scalp.to_mesh().unwrap()).unwrap();
+    let bindings = vec![hikage_bundle::StrandBinding { triangle: 0, barycentric: [0.25, 0.25] }; 8];
+    let binding_settings =
+        hikage_bundle::HairBindingSettings { strands: "h.strips".into(), scalp: "h.scalp".into(), max_distance: 0.0 };
+    let binding = hikage_bundle::binding::binding_mesh(&bindings).unwrap();
+    w.put_mesh("h.binding", Settings::HairBinding(binding_settings), "x", &binding).unwrap();
     w.commit().unwrap();
     (volume, points)
 }
@@ -137,6 +152,10 @@ fn a_bundle_loads_as_labelled_images_and_meshes() {
     assert_eq!(bundle.image_ids, ["t.blocks", "t.plane", "t.volume"]);
     assert_eq!(bundle.mesh_ids, ["h.strips", "m.tri"]);
     assert!(bundle.asset("h.strips").unwrap().settings.strands().is_some());
+    let scalp = bundle.hair_binding("h.scalp").expect("the scalp is read");
+    assert_eq!(scalp.mesh().unwrap().read_indices().unwrap(), [0, 1, 2]);
+    assert_eq!(bundle.hair_binding("h.binding").unwrap().mesh().unwrap().desc.vertex_count, 8);
+    assert!(bundle.strands("h.binding").is_none() && bundle.hair_binding("h.strips").is_none());
     // The labelled path names the same image.
     let labelled: Handle<Image> = world.resource::<AssetServer>().load("b/bundle.ron#t.volume");
     assert_eq!(labelled.id(), bundle.image("t.volume").unwrap().id());

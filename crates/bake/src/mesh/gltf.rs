@@ -1,7 +1,10 @@
-//! A glTF 2.0 reader for what curvature needs: the triangle primitives of the file's first mesh,
-//! with `POSITION` and `TEXCOORD_0`, from a `.glb` or from a `.gltf` whose buffers are `data:`
-//! URIs or files beside it. Node transforms are ignored (the mesh's own space, as with OBJ), and
-//! so are materials, normals, skins and every other extension of the format.
+//! A glTF 2.0 reader for what curvature and hair binding need, from a `.glb` or from a `.gltf`
+//! whose buffers are `data:` URIs or files beside it: for curvature ([`load`]) the triangle
+//! primitives of the file's first mesh with `POSITION` and `TEXCOORD_0`; for binding hair to a
+//! scalp ([`load_skinned`]) the first skinned node's mesh with `POSITION`, `JOINTS_0` and
+//! `WEIGHTS_0` and its skin's joint names. Node transforms are ignored (the mesh's own space, as
+//! with OBJ; skinning positions are in it), and so are materials, normals, animations and every
+//! other extension of the format.
 //!
 //! glTF repeats a position for every (position, normal, texture coordinate) combination; the
 //! reader welds bit-identical positions back together, so curvature is shared across seams as it
