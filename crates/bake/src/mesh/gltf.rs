@@ -171,22 +171,8 @@ pub fn load(path: &Path, limits: MeshLimits) -> Result<Mesh, BakeError> {
             out.vertex_position.push(index);
             out.vertex_uv.push(DVec2::new(uv[0], uv[1]));
         }
-        let indices: Vec<u64> = match prim.indices {
-            Some(a) => {
-                let raw = doc.read(a, "SCALAR").map_err(|m| bad(place(" indices"), m))?;
-                raw.into_iter().map(|i| i as u64).collect()
-            }
-            None => (0..count as u64).collect(),
-        };
-        if !indices.len().is_multiple_of(3) {
-            return Err(bad(place(" indices"), format!("expected a multiple of 3 indices, found {}", indices.len())));
-        }
-        for (t, tri) in indices.chunks_exact(3).enumerate() {
-            if let Some(&i) = tri.iter().find(|&&i| i >= count as u64) {
-                return Err(bad(place(" indices"), format!("triangle {t} names vertex {i}, but there are {count}")));
-            }
-            out.triangles.push([(base + tri[0]) as u32, (base + tri[1]) as u32, (base + tri[2]) as u32]);
-        }
+        let triangles = doc.triangles(prim, count).map_err(|m| bad(place(" indices"), m))?;
+        out.triangles.extend(triangles.iter().map(|t| t.map(|i| (base + i as u64) as u32)));
     }
     if out.triangles.is_empty() {
         return Err(bad(Some("mesh 0".into()), "expected at least one triangle".into()));
@@ -295,21 +281,8 @@ pub fn load_skinned(path: &Path, limits: MeshLimits) -> Result<SkinnedMesh, Bake
             out.joints.push(std::array::from_fn(|k| if w[k] > 0.0 { j[k] as u16 } else { 0 }));
             out.weights.push(std::array::from_fn(|k| (w[k] / sum) as f32));
         }
-        let indices: Vec<u64> = match prim.indices {
-            Some(a) => {
-                doc.read(a, "SCALAR").map_err(|m| bad(place(" indices"), m))?.into_iter().map(|i| i as u64).collect()
-            }
-            None => (0..count as u64).collect(),
-        };
-        if !indices.len().is_multiple_of(3) {
-            return Err(bad(place(" indices"), format!("expected a multiple of 3 indices, found {}", indices.len())));
-        }
-        for (t, tri) in indices.chunks_exact(3).enumerate() {
-            if let Some(&i) = tri.iter().find(|&&i| i >= count as u64) {
-                return Err(bad(place(" indices"), format!("triangle {t} names vertex {i}, but there are {count}")));
-            }
-            out.triangles.push(std::array::from_fn(|k| (base + tri[k]) as u32));
-        }
+        let triangles = doc.triangles(prim, count).map_err(|m| bad(place(" indices"), m))?;
+        out.triangles.extend(triangles.iter().map(|t| t.map(|i| (base + i as u64) as u32)));
     }
     if out.triangles.is_empty() {
         return Err(bad(Some(format!("mesh {mesh_index}")), "expected at least one triangle".into()));
@@ -422,6 +395,26 @@ struct Document<'a> {
 }
 
 impl Document<'_> {
+    /// The triangles of primitive `prim` of `count` vertices: its index accessor, or its
+    /// vertices in order, each index checked below `count`.
+    fn triangles(&self, prim: &Primitive, count: usize) -> Result<Vec<[u32; 3]>, String> {
+        let indices: Vec<u64> = match prim.indices {
+            Some(a) => self.read(a, "SCALAR")?.into_iter().map(|i| i as u64).collect(),
+            None => (0..count as u64).collect(),
+        };
+        if !indices.len().is_multiple_of(3) {
+            return Err(format!("expected a multiple of 3 indices, found {}", indices.len()));
+        }
+        indices
+            .chunks_exact(3)
+            .enumerate()
+            .map(|(t, tri)| match tri.iter().find(|&&i| i >= count as u64) {
+                Some(&i) => Err(format!("triangle {t} names vertex {i}, but there are {count}")),
+                None => Ok(std::array::from_fn(|k| tri[k] as u32)),
+            })
+            .collect()
+    }
+
     /// Accessor `index`, which must have type `kind`, as f64 components (normalized integers
     /// mapped to [0, 1]; index accessors as plain integers).
     fn read(&self, index: usize, kind: &str) -> Result<Vec<f64>, String> {
