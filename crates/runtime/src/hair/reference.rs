@@ -364,41 +364,6 @@ pub fn hair_oit_weight(u: &HairUniform, z: f32, a: f32) -> f32 {
     a * (-u.oit_falloff * t).exp().max(1e-4)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The specular lobe peaks where T·E = −T·L (the cone of mirror directions), not where
-    /// T·E = T·L (back-scatter): scanning the eye over a great circle through the tangent.
-    #[test]
-    fn kajiya_kay_highlight_sits_on_the_mirror_cone() {
-        let t = Vec3::X;
-        for light_angle in [20f32, 45.0, 70.0, 110.0] {
-            let a = light_angle.to_radians();
-            let to_light = Vec3::new(a.cos(), a.sin(), 0.0);
-            let (mut best, mut best_angle) = (-1.0f32, 0.0f32);
-            for k in 0..3600 {
-                let e = (k as f32 * 0.1).to_radians();
-                let to_eye = Vec3::new(e.cos(), 0.0, e.sin());
-                let s = hair_specular(t, to_light, to_eye, 40.0);
-                if s > best {
-                    (best, best_angle) = (s, e);
-                }
-            }
-            let te = best_angle.cos();
-            assert!(
-                (te + to_light.dot(t)).abs() < 2e-3,
-                "light at {light_angle}°: peak at T·E {te}, T·L {}",
-                to_light.dot(t)
-            );
-            assert!((best - 1.0).abs() < 1e-4, "the peak is 1: {best}");
-            // Back-scatter (T·E = +T·L) is far from the peak unless the light is across.
-            let back = Vec3::new(a.cos(), 0.0, a.sin());
-            assert!(hair_specular(t, to_light, back, 40.0) < 0.5 || light_angle == 90.0);
-        }
-    }
-}
-
 /// `skin_posed_vertex`: scalp vertex `v` skinned by `joints` (Σ weight × joint matrix ×
 /// bind-pose position, over the vertex's joints with a weight above 0).
 pub fn skin_posed_vertex(scalp: &hikage_bundle::Scalp, v: u32, joints: &[glam::Mat4]) -> Vec3 {
@@ -454,4 +419,39 @@ pub fn hair_skin(
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The specular lobe peaks where T·E = −T·L (the cone of mirror directions), not where
+    /// T·E = T·L (back-scatter): scanning the eye over a great circle through the tangent.
+    #[test]
+    fn kajiya_kay_highlight_sits_on_the_mirror_cone() {
+        let t = Vec3::X;
+        for light_angle in [20f32, 45.0, 70.0, 110.0] {
+            let a = light_angle.to_radians();
+            let to_light = Vec3::new(a.cos(), a.sin(), 0.0);
+            let (mut best, mut best_angle) = (-1.0f32, 0.0f32);
+            for k in 0..3600 {
+                let e = (k as f32 * 0.1).to_radians();
+                let to_eye = Vec3::new(e.cos(), 0.0, e.sin());
+                let s = hair_specular(t, to_light, to_eye, 40.0);
+                if s > best {
+                    (best, best_angle) = (s, e);
+                }
+            }
+            let te = best_angle.cos();
+            assert!(
+                (te + to_light.dot(t)).abs() < 2e-3,
+                "light at {light_angle}°: peak at T·E {te}, T·L {}",
+                to_light.dot(t)
+            );
+            assert!((best - 1.0).abs() < 1e-4, "the peak is 1: {best}");
+            // Back-scatter (T·E = +T·L) is far from the peak unless the light is across.
+            let back = Vec3::new(a.cos(), 0.0, a.sin());
+            assert!(hair_specular(t, to_light, back, 40.0) < 0.5 || light_angle == 90.0);
+        }
+    }
 }
