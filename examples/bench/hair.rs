@@ -147,3 +147,81 @@ fn camera_frames() {
     println!();
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Skinned against static hair: the devkit's character with 20,000 strands of 16 points, its
+/// frame at 512² (the skinning pass, opacity maps, hair, composite) against the same strands
+/// drawn without the skin, and the skinning pass alone; best of 5, in one run.
+pub fn skinned_frames() {
+    use hikage_runtime::glam::Vec3;
+    use hikage_runtime::hair::{HairFrame, HairLight, HairSkin};
+    use hikage_runtime::{CpuBundle, GpuBundle, wgpu};
+    use hikage_scenes::hair_view::{orbit_camera, render_view, renderers};
+    let Ok(g) = hikage_scenes::headless::Headless::new() else {
+        println!("(no GPU adapter: skinned frames skipped)\n");
+        return;
+    };
+    let dir = std::env::temp_dir().join(format!("hikage-bench-skin-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("a scratch directory");
+    let (strands, points) = (20_000u32, 16u16);
+    let character = hikage_devkit::synth::character(strands, points, 3);
+    std::fs::write(dir.join("character.glb"), &character.glb).expect("writing the character");
+    let hair = hikage_bake::strands::cyhair::encode(&character.hair, "bench character");
+    std::fs::write(dir.join("head.hair"), hair).expect("writing the hair");
+    let text = r#"(output: "bundle", jobs: [Strands(id: "head", input: "head.hair", scalp: Some("character.glb"))])"#;
+    std::fs::write(dir.join("pipeline.ron"), text).expect("writing the scratch pipeline");
+    hikage_bake::run::run_pipeline(&dir.join("pipeline.ron"), &Default::default()).expect("baking the character");
+    let cpu = CpuBundle::read(&dir.join("bundle")).expect("reading the scratch bundle");
+    let gb = GpuBundle::upload(&g.device, &g.queue, &cpu).expect("uploading");
+    let asset = |id: &str| cpu.asset(id).expect("baked above");
+    let skin = HairSkin::new(&g.device, &g.queue, &gb, asset("head.binding"), asset("head.scalp")).expect("a skin");
+    let (still, _) = renderers(&g, &gb, "head.strips", 512, 1, 256).expect("a renderer");
+    let (mut skinned, _) = renderers(&g, &gb, "head.strips", 512, 1, 256).expect("a renderer");
+    skinned.follow(&skin).expect("the skin poses these strands");
+    let joints = hikage_devkit::synth::pose(0.3);
+    let bounds = skin.update(&g.queue, &joints).expect("two joints");
+    let (camera, eye) = orbit_camera(bounds.0, bounds.1, 20.0);
+    let to_light = Vec3::new(0.45, 1.0, 0.3);
+    let light = HairLight::for_bounds(bounds.0, bounds.1, to_light);
+    // Both drawn in the same box, so only the skinning differs.
+    let frame = HairFrame { bounds: Some(bounds), ..HairFrame::new(camera, eye, light) };
+    let pose = || {
+        let mut encoder = g.device.create_command_encoder(&Default::default());
+        skin.record(&mut encoder);
+        g.queue.submit([encoder.finish()]);
+    };
+    let still_time = best_of(5, || render_view(&g, &still, &frame, 512, 1)).0;
+    let skinned_time = best_of(5, || {
+        skin.update(&g.queue, &joints).expect("two joints");
+        pose();
+        render_view(&g, &skinned, &frame, 512, 1)
+    })
+    .0;
+    let pass_time = best_of(5, || {
+        pose();
+        g.device.poll(wgpu::PollType::wait_indefinitely()).expect("device poll");
+    })
+    .0;
+    let update_time = best_of(5, || skin.update(&g.queue, &joints).expect("two joints")).0;
+    let records = skin.points();
+    println!(
+        "Skinned hair, the devkit's character ({strands} strands, {records} records, two joints) at 512² on {} (best of 5)\n",
+        g.describe()
+    );
+    println!("| frame | time | baseline | ratio |");
+    println!("|---|---|---|---|");
+    println!(
+        "| skinned: skin pass + opacity maps + hair + composite | {:.1} ms | static: {:.1} ms | {:.2}× |",
+        skinned_time * 1e3,
+        still_time * 1e3,
+        skinned_time / still_time
+    );
+    println!(
+        "| the skin pass alone | {:.2} ms | static frame: {:.1} ms | {:.3}× |",
+        pass_time * 1e3,
+        still_time * 1e3,
+        pass_time / still_time
+    );
+    println!("| the skin's update (joints, CPU box) | {:.3} ms | — | — |", update_time * 1e3);
+    println!();
+    let _ = std::fs::remove_dir_all(&dir);
+}

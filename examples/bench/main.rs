@@ -102,6 +102,9 @@ fn main() {
     if wanted("hair") {
         hair::run();
     }
+    if wanted("hair") || wanted("skin") {
+        hair::skinned_frames();
+    }
     if wanted("fit") {
         fit::run();
     }

@@ -510,3 +510,146 @@ fn hair_mistakes_are_said_on_the_entity() {
     // None of it asked the app to quit (a render validation error does).
     assert!(app.world().resource::<bevy::ecs::message::Messages<AppExit>>().is_empty(), "the app was asked to quit");
 }
+
+/// Hair bound to a skinned scalp follows the `SkinnedMesh` it is given: the devkit's character
+/// (a head on a neck, two joints) posed by its joint entities draws its hair, and the hair's
+/// shadow on a ground, as the same strands posed on the CPU and baked there — with the light box
+/// and density the skin gives — within 1/255 on at least 99.9% of the pixels.
+#[test]
+fn hair_follows_a_skinned_mesh_as_if_baked_posed() {
+    use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
+    use hikage_runtime::hair::reference::{skin_posed_vertex, skin_strand};
+    if !gpu_or_skip("hair_follows_a_skinned_mesh_as_if_baked_posed") {
+        return;
+    }
+    let character = hikage_devkit::synth::character(600, 10, 11);
+    let dir = option_env!("CARGO_TARGET_TMPDIR")
+        .map_or_else(std::env::temp_dir, std::path::PathBuf::from)
+        .join("hair_skinned");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("character.glb"), &character.glb).unwrap();
+    let skinned = hikage_bake::mesh::gltf::load_skinned(&dir.join("character.glb"), Default::default()).unwrap();
+    let sets = StripSets { shading: (0.04, 0.5), opacity: (0.25, 0.06), taper: 0.0 };
+    let s = &character.hair;
+    let bound = hikage_bake::strands::bind::bind(s, &skinned, 0.5, 0.125).unwrap();
+    let scalp_mesh = bound.scalp.to_mesh().unwrap();
+    let binding_mesh = hikage_bundle::binding::binding_mesh(&bound.bindings).unwrap();
+    // What the GPU reads: the weights as stored.
+    let scalp = hikage_bundle::Scalp::read(&scalp_mesh).unwrap();
+    let bindings = hikage_bundle::binding::read_binding(&binding_mesh).unwrap();
+    let t = 0.3f32;
+    let joints = hikage_devkit::synth::pose(t);
+    let mut posed = s.clone();
+    let mut at = 0;
+    for (strand, &segments) in s.segments.iter().enumerate() {
+        let (rotation, rest, there) = skin_strand(&scalp, &bindings[strand], &joints);
+        for p in &mut posed.points[at..=at + segments as usize] {
+            *p = (there + rotation * (glam::Vec3::from(*p) - rest)).to_array();
+        }
+        at += segments as usize + 1;
+    }
+    // The posed copy carries the skin's box and the density the rest pose has in its own box.
+    let (lo, hi) = (0..scalp.positions.len() as u32).fold(
+        (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY)),
+        |(lo, hi), v| {
+            let p = skin_posed_vertex(&scalp, v, &joints);
+            let r = glam::Vec3::splat(scalp.reach[v as usize]);
+            (lo.min(p - r), hi.max(p + r))
+        },
+    );
+    let here = build(s, &sets);
+    let here_settings = here.settings(s, &sets, None);
+    let there = build(&posed, &sets);
+    let mut there_settings = there.settings(&posed, &sets, None);
+    let volume = |a: [f32; 3], b: [f32; 3]| (0..3).map(|k| b[k] - a[k]).product::<f32>();
+    there_settings.opacity_area = here_settings.opacity_area * (hi - lo).to_array().iter().product::<f32>()
+        / volume(here_settings.bounds_min, here_settings.bounds_max);
+    (there_settings.bounds_min, there_settings.bounds_max) = (lo.to_array(), hi.to_array());
+    let mut writer = BundleWriter::open(&dir.join("bundle"), WriteMode::Replace).unwrap();
+    writer.put_mesh("here.strips", Settings::Strands(here_settings), "test", &here.mesh).unwrap();
+    writer.put_mesh("there.strips", Settings::Strands(there_settings), "test", &there.mesh).unwrap();
+    let scalp_settings = hikage_bundle::ScalpSettings { joints: skinned.joint_names.clone(), source_triangles: 1 };
+    writer.put_mesh("here.scalp", Settings::Scalp(scalp_settings), "test", &scalp_mesh).unwrap();
+    let binding_settings = hikage_bundle::HairBindingSettings {
+        strands: "here.strips".into(),
+        scalp: "here.scalp".into(),
+        max_distance: bound.max_distance,
+    };
+    writer.put_mesh("here.binding", Settings::HairBinding(binding_settings), "test", &binding_mesh).unwrap();
+    writer.commit().unwrap();
+
+    let centre = Vec3::new(0.0, 8.0, 0.0);
+    let view = Transform::from_xyz(25.0, 30.0, 60.0).looking_at(centre, Vec3::Y);
+    let projection = Projection::Perspective(PerspectiveProjection { fov: 45f32.to_radians(), near: 1.0, ..default() });
+    let MaskScene { mut app, target, .. } =
+        MaskScene::new(&dir, SIZE, Vec3::new(0.4, 1.0, 0.3).normalize(), view, projection);
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    let plane = app.world().resource_mut::<Assets<Mesh>>().add(Plane3d::default().mesh().size(80.0, 80.0));
+    let bevy_mat = |m: glam::Mat4| Mat4::from_cols_array(&m.to_cols_array());
+    let inverse = app
+        .world()
+        .resource_mut::<Assets<SkinnedMeshInverseBindposes>>()
+        .add(vec![Mat4::IDENTITY, Mat4::from_translation(Vec3::new(0.0, -6.0, 0.0))]);
+    let draw = |app: &mut common::Headless, skinned: bool| {
+        let world = app.world();
+        let mut spawned = Vec::new();
+        let hair = if skinned {
+            // The joints where the pose puts them: joint matrix × bind pose.
+            let neck = world.spawn(Transform::from_matrix(bevy_mat(joints[0]))).id();
+            let head = world
+                .spawn(Transform::from_matrix(bevy_mat(joints[1]) * Mat4::from_translation(Vec3::new(0.0, 6.0, 0.0))))
+                .id();
+            let body = world.spawn(SkinnedMesh { inverse_bindposes: inverse.clone(), joints: vec![neck, head] }).id();
+            spawned.extend([neck, head, body]);
+            world.spawn(HairStrands::new(bundle.clone(), "here.strips").with_skin(body)).id()
+        } else {
+            world.spawn(HairStrands::new(bundle.clone(), "there.strips")).id()
+        };
+        let ground =
+            world.spawn((Mesh3d(plane.clone()), Transform::from_xyz(0.0, -8.0, 0.0), HairReceiver::new(hair))).id();
+        let built = app.update_until(600, |w| w.get::<MeshMaterial3d<HairReceiverMaterial>>(ground).is_some());
+        assert!(built, "the receiver was not built");
+        let image = app.capture_bytes_settled(&target);
+        assert!(app.world().get::<HikageError>(hair).is_none(), "{:?}", app.world().get::<HikageError>(hair));
+        for e in spawned.into_iter().chain([hair, ground]) {
+            app.world().despawn(e);
+        }
+        image
+    };
+    let baked = draw(&mut app, false);
+    let followed = draw(&mut app, true);
+    let white = app.world().resource_mut::<Assets<StandardMaterial>>().add(StandardMaterial::default());
+    app.world().spawn((Mesh3d(plane), MeshMaterial3d(white), Transform::from_xyz(0.0, -8.0, 0.0)));
+    app.update();
+    let bare = app.capture_bytes(&target);
+    let n = baked.len();
+    let agree = followed.iter().zip(&baked).filter(|(a, b)| (0..3).all(|k| a[k].abs_diff(b[k]) <= 1)).count();
+    let changed = baked.iter().zip(&bare).filter(|(a, b)| (0..3).any(|k| a[k].abs_diff(b[k]) > 8)).count();
+    eprintln!(
+        "bevy hair following a skin: {agree} of {n} pixels within 1/255 of the hair baked posed ({changed} pixels show hair or its shadow)"
+    );
+    assert!(changed > 2000, "the hair and its shadow change part of the frame");
+    assert!(agree as f64 >= 0.999 * n as f64, "{agree} of {n}");
+    // Mistakes are said on the hair: a skin entity without a SkinnedMesh, strands the bundle
+    // binds to no scalp, a skin of other joints.
+    let world = app.world();
+    let nothing = world.spawn(Transform::default()).id();
+    let joint = world.spawn(Transform::default()).id();
+    let three = world.spawn(SkinnedMesh { inverse_bindposes: inverse.clone(), joints: vec![joint; 3] }).id();
+    let cases = [
+        (world.spawn(HairStrands::new(bundle.clone(), "here.strips").with_skin(nothing)).id(), "has no SkinnedMesh"),
+        (
+            world.spawn(HairStrands::new(bundle.clone(), "there.strips").with_skin(three)).id(),
+            "binds no scalp to `there.strips`",
+        ),
+        (
+            world.spawn(HairStrands::new(bundle.clone(), "here.strips").with_skin(three)).id(),
+            "has 3 joints; the scalp was bound to a skin of 2 (neck, head)",
+        ),
+    ];
+    for (hair, needle) in cases {
+        let said = app.update_until(100, |w| w.get::<HikageError>(hair).is_some_and(|e| e.0.contains(needle)));
+        assert!(said, "{needle}: {:?}", app.world().get::<HikageError>(hair));
+    }
+}

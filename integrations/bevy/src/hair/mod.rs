@@ -91,6 +91,11 @@ pub struct HairStrands {
     pub lod: HairLod,
     /// Gradient, taper and per-strand variation.
     pub style: HairStyle,
+    /// The entity holding the `SkinnedMesh` the strands were bound to (a strands job with
+    /// `scalp`), or `None` for hair carried rigidly by this entity's transform. With a skin, each
+    /// strand follows its scalp triangle as the skin's joints pose it (on the GPU, every frame),
+    /// and this entity's transform is not used.
+    pub skin: Option<Entity>,
 }
 
 impl HairStrands {
@@ -111,7 +116,25 @@ impl HairStrands {
             min_pixel_width: defaults.min_pixel_width,
             lod: defaults.lod,
             style: HairStyle::default(),
+            skin: None,
         }
+    }
+
+    /// The same, following the skinned mesh of entity `skin` (the character's mesh entity with
+    /// a `SkinnedMesh`, as a glTF scene spawns it), whose scalp the strands were bound to.
+    ///
+    /// ```no_run
+    /// use bevy::prelude::*;
+    /// use hikage_bevy::hair::HairStrands;
+    ///
+    /// // `body` is the entity of the character's skinned mesh (a glTF scene's mesh node).
+    /// fn attach(mut commands: Commands, assets: Res<AssetServer>, body: Entity) {
+    ///     commands.spawn(HairStrands::new(assets.load("bundle/bundle.ron"), "head.strips").with_skin(body));
+    /// }
+    /// ```
+    pub fn with_skin(mut self, skin: Entity) -> HairStrands {
+        self.skin = Some(skin);
+        self
     }
 
     /// The same, drawn as `draw` says.
@@ -221,6 +244,7 @@ pub(crate) fn build(app: &mut App) {
         (
             give_maps,
             check_strips,
+            check_skin,
             receiver::attach.after(give_maps),
             receiver::check_mesh,
             crate::diagnostics::check_sun::<HairReceiver>,
@@ -252,6 +276,59 @@ fn check_strips(
             },
         };
         Problems::set(&mut problems, Check::Build, problem);
+    }
+}
+
+/// The hair binding of strips `strips` in `bundle` and the scalp it names: the assets a skin
+/// needs; or why there are none.
+pub(crate) fn binding_of<'a>(
+    bundle: &'a HikageBundle,
+    strips: &str,
+) -> Result<(&'a std::sync::Arc<hikage_runtime::CpuAsset>, &'a std::sync::Arc<hikage_runtime::CpuAsset>), String> {
+    let binding = bundle
+        .manifest
+        .assets
+        .iter()
+        .find(|a| a.settings.hair_binding().is_some_and(|b| b.strands == strips))
+        .and_then(|a| bundle.hair_binding(&a.id))
+        .ok_or_else(|| {
+            format!("the bundle binds no scalp to `{strips}`: bake the strands with `scalp` (a skinned glTF)")
+        })?;
+    let scalp_id = &binding.asset.settings.hair_binding().expect("found by it").scalp;
+    let scalp = bundle.hair_binding(scalp_id).ok_or_else(|| format!("the bundle has no scalp `{scalp_id}`"))?;
+    Ok((binding, scalp))
+}
+
+/// Says on each [`HairStrands`] following a skin what keeps it from following: no
+/// `SkinnedMesh` on the entity, no binding of its strips in the bundle, or a skin whose joints
+/// are not the ones the scalp was bound with.
+fn check_skin(
+    mut hairs: Query<(&HairStrands, &mut Problems)>,
+    skins: Query<&bevy_mesh::skinning::SkinnedMesh>,
+    bundles: Res<Assets<HikageBundle>>,
+) {
+    for (hair, mut problems) in &mut hairs {
+        let Some(entity) = hair.skin else {
+            Problems::set(&mut problems, Check::Mesh, None);
+            continue;
+        };
+        let Some(bundle) = bundles.get(&hair.bundle) else { continue };
+        let problem = match (skins.get(entity), binding_of(bundle, &hair.strips)) {
+            (Err(_), _) => Some(format!("the skin entity {entity} has no SkinnedMesh")),
+            (_, Err(e)) => Some(e),
+            (Ok(skin), Ok((_, scalp))) => {
+                let joints = &scalp.asset.settings.scalp().expect("a scalp").joints;
+                (skin.joints.len() != joints.len()).then(|| {
+                    format!(
+                        "the skin of entity {entity} has {} joints; the scalp was bound to a skin of {} ({})",
+                        skin.joints.len(),
+                        joints.len(),
+                        joints.join(", ")
+                    )
+                })
+            }
+        };
+        Problems::set(&mut problems, Check::Mesh, problem);
     }
 }
 

@@ -20,7 +20,7 @@ use bevy_render::texture::GpuImage;
 use bevy_render::view::{ExtractedView, Msaa, ViewDepthStencilTexture, ViewTarget};
 use bevy_render::{Extract, ExtractSchedule, Render, RenderApp, RenderSystems};
 use bevy_transform::components::GlobalTransform;
-use hikage_runtime::hair::{HairFrame, HairOptions, HairRenderer};
+use hikage_runtime::hair::{HairFrame, HairLight, HairOptions, HairRenderer, HairSkin};
 use hikage_runtime::{CpuAsset, GpuBundle, glam, wgpu};
 
 use super::{HairDraw, HairShadowMaps, HairStrands};
@@ -42,6 +42,16 @@ struct ExtractedHair {
     light_color: glam::Vec3,
     /// The ambient light, before the camera's exposure.
     ambient: glam::Vec3,
+    /// The skin the hair follows: its binding and scalp, and this frame's joint matrices.
+    skin: Option<ExtractedSkin>,
+}
+
+/// A skinned hair's binding and scalp as loaded, and its skin's joint matrices this frame
+/// (each joint's world matrix × its inverse bind pose).
+struct ExtractedSkin {
+    binding: Arc<CpuAsset>,
+    scalp: Arc<CpuAsset>,
+    joints: Vec<glam::Mat4>,
 }
 
 /// The hairs of this frame.
@@ -51,8 +61,8 @@ struct ExtractedHairs(Vec<ExtractedHair>);
 /// One hair's renderer for one camera, and what it was built for.
 struct ViewHair {
     renderer: HairRenderer,
-    /// The records, opacity-map size and colour format it was built for.
-    built_for: (usize, u32, wgpu::TextureFormat),
+    /// The records, opacity-map size, colour format and skin it was built for.
+    built_for: (usize, u32, wgpu::TextureFormat, usize),
     /// The camera's size its blend targets have.
     size: (u32, u32),
 }
@@ -64,6 +74,9 @@ struct ViewHair {
 struct HairRenderers {
     views: HashMap<(Entity, Entity), ViewHair>,
     uploads: HashMap<Entity, (usize, GpuBundle)>,
+    /// Each skinned hair's skin (by the binding it was built from and the upload it poses),
+    /// and the box its hair lies in this frame.
+    skins: HashMap<Entity, (usize, HairSkin, (glam::Vec3, glam::Vec3))>,
     failed: Vec<(Entity, usize)>,
     resolve: Option<DepthResolve>,
     resolved: HashMap<Entity, wgpu::Texture>,
@@ -228,6 +241,14 @@ fn to_glam(c: LinearRgba) -> glam::Vec3 {
     glam::Vec3::from_array(c.to_f32_array_no_alpha())
 }
 
+/// What extraction reads of the skins hair follows: their meshes' joints, the joints' transforms
+/// and the inverse bind poses.
+type Skinning = (
+    Query<'static, 'static, &'static bevy_mesh::skinning::SkinnedMesh>,
+    Query<'static, 'static, &'static GlobalTransform>,
+    Res<'static, bevy_asset::Assets<bevy_mesh::skinning::SkinnedMeshInverseBindposes>>,
+);
+
 /// Copies each hair whose bundle and maps are ready, with its light, into the render world.
 fn extract(
     mut out: ResMut<ExtractedHairs>,
@@ -235,14 +256,36 @@ fn extract(
     bundles: Extract<Res<bevy_asset::Assets<HikageBundle>>>,
     lights: Extract<Query<(Entity, &DirectionalLight, &GlobalTransform)>>,
     ambient: Extract<Option<Res<GlobalAmbientLight>>>,
+    skinning: Extract<Skinning>,
 ) {
+    let (skins, joints, bindposes) = &*skinning;
     out.0.clear();
     let ambient = ambient.as_ref().map_or(glam::Vec3::ZERO, |a| to_glam(a.color.to_linear()) * a.brightness);
     // The scene's light for hairs that name none: the first with shadow maps, else the first.
     let first = lights.iter().min_by_key(|(e, l, _)| (!l.shadow_maps_enabled, *e));
     for (entity, hair, maps, transform) in &hairs {
-        let Some(strips) = bundles.get(&hair.bundle).and_then(|b| b.strands(&hair.strips)) else {
-            continue;
+        let Some(bundle) = bundles.get(&hair.bundle) else { continue };
+        let Some(strips) = bundle.strands(&hair.strips) else { continue };
+        // A skinned hair waits for its skin, its joints and its binding (said on the entity
+        // while one is missing).
+        let skin = match hair.skin {
+            None => None,
+            Some(entity) => {
+                let Ok(skin) = skins.get(entity) else { continue };
+                let Some(inverse) = bindposes.get(&skin.inverse_bindposes) else { continue };
+                let Ok((binding, scalp)) = super::binding_of(bundle, &hair.strips) else { continue };
+                let matrices: Option<Vec<glam::Mat4>> = skin
+                    .joints
+                    .iter()
+                    .zip(inverse.iter())
+                    .map(|(&j, ibm)| {
+                        let world = joints.get(j).ok()?.to_matrix() * *ibm;
+                        Some(glam::Mat4::from_cols_array(&world.to_cols_array()))
+                    })
+                    .collect();
+                let Some(matrices) = matrices.filter(|m| m.len() == skin.joints.len()) else { continue };
+                Some(ExtractedSkin { binding: binding.clone(), scalp: scalp.clone(), joints: matrices })
+            }
         };
         let light = match hair.light {
             Some(e) => lights.get(e).ok(),
@@ -255,7 +298,11 @@ fn extract(
             ),
             None => (glam::Vec3::Y, glam::Vec3::ZERO),
         };
-        let model = glam::Mat4::from_cols_array(&transform.to_matrix().to_cols_array());
+        // A skin's joint matrices pose the hair in the world.
+        let model = match skin {
+            Some(_) => glam::Mat4::IDENTITY,
+            None => glam::Mat4::from_cols_array(&transform.to_matrix().to_cols_array()),
+        };
         out.0.push(ExtractedHair {
             entity,
             strips: strips.clone(),
@@ -265,6 +312,7 @@ fn extract(
             to_light,
             light_color,
             ambient,
+            skin,
         });
     }
 }
@@ -296,6 +344,39 @@ fn prepare(
             }
             upload.0 = key(&h.strips);
         }
+        // The skin, built for this binding and this upload, takes this frame's joints.
+        let skin_key = match &h.skin {
+            None => {
+                renderers.skins.remove(&h.entity);
+                0
+            }
+            Some(skin) => {
+                let wanted = key(&skin.binding) ^ key(&h.strips).rotate_left(17);
+                if renderers.skins.get(&h.entity).is_none_or(|s| s.0 != wanted) {
+                    let gpu = &renderers.uploads[&h.entity].1;
+                    match HairSkin::new(device, queue, gpu, &skin.binding, &skin.scalp) {
+                        Ok(built) => {
+                            let empty = (glam::Vec3::ZERO, glam::Vec3::ZERO);
+                            renderers.skins.insert(h.entity, (wanted, built, empty));
+                        }
+                        Err(e) => {
+                            bevy_log::error!("hikage: hair `{strips_id}`: {e}");
+                            renderers.failed.push((h.entity, key(&h.strips)));
+                            continue;
+                        }
+                    }
+                }
+                let entry = renderers.skins.get_mut(&h.entity).expect("built above");
+                match entry.1.update(queue, &skin.joints) {
+                    Ok(bounds) => entry.2 = bounds,
+                    Err(e) => {
+                        bevy_log::error!("hikage: hair `{strips_id}`: {e}");
+                        continue;
+                    }
+                }
+                wanted
+            }
+        };
         let mut uniform_written = false;
         for (view, extracted, camera, target, msaa) in &views {
             let Some(size) = camera.physical_target_size else { continue };
@@ -318,14 +399,21 @@ fn prepare(
                 live_views.push(view);
             }
             let format = target.main_texture_format();
-            let built_for = (key(&h.strips), h.maps.resolution, format);
+            let built_for = (key(&h.strips), h.maps.resolution, format, skin_key);
             let slot = (h.entity, view);
             if renderers.views.get(&slot).is_none_or(|v| v.built_for != built_for) {
                 let mut options = HairOptions::new(format, (size.x, size.y));
                 options.resolution = h.maps.resolution;
                 options.draw.depth_format = Some(DEPTH_FORMAT);
                 options.draw.depth_compare = wgpu::CompareFunction::GreaterEqual;
-                match HairRenderer::new(device, queue, &renderers.uploads[&h.entity].1, strips_id, &options) {
+                let built = HairRenderer::new(device, queue, &renderers.uploads[&h.entity].1, strips_id, &options)
+                    .and_then(|mut renderer| {
+                        if let Some((_, skin, _)) = renderers.skins.get(&h.entity) {
+                            renderer.follow(skin)?;
+                        }
+                        Ok(renderer)
+                    });
+                match built {
                     Ok(renderer) => {
                         renderers.views.insert(slot, ViewHair { renderer, built_for, size: (size.x, size.y) });
                     }
@@ -337,12 +425,13 @@ fn prepare(
                     }
                 }
             }
+            let bounds = renderers.skins.get(&h.entity).map(|s| s.2);
             let v = renderers.views.get_mut(&slot).expect("built above");
             if v.size != (size.x, size.y) {
                 v.size = (size.x, size.y);
                 v.renderer.resize(device, v.size);
             }
-            let frame = frame(h, extracted, camera, &v.renderer);
+            let frame = frame(h, extracted, camera, &v.renderer, bounds);
             v.renderer.update(queue, &frame);
             // The receivers read the light's half of the uniform, the same for every camera.
             if !uniform_written && let Some(buffer) = buffers.get(&h.maps.uniform) {
@@ -356,11 +445,19 @@ fn prepare(
     renderers.resolved.retain(|view, _| live_views.contains(view));
     let hair_entities: Vec<Entity> = hairs.0.iter().map(|h| h.entity).collect();
     renderers.uploads.retain(|e, _| hair_entities.contains(e));
+    renderers.skins.retain(|e, _| hair_entities.contains(e));
     renderers.failed.retain(|(e, _)| hair_entities.contains(e));
 }
 
-/// The runtime's frame for hair `h` seen by a camera.
-fn frame(h: &ExtractedHair, view: &ExtractedView, camera: &ExtractedCamera, renderer: &HairRenderer) -> HairFrame {
+/// The runtime's frame for hair `h` seen by a camera; `bounds` is a skinned hair's box this
+/// frame.
+fn frame(
+    h: &ExtractedHair,
+    view: &ExtractedView,
+    camera: &ExtractedCamera,
+    renderer: &HairRenderer,
+    bounds: Option<(glam::Vec3, glam::Vec3)>,
+) -> HairFrame {
     let world_from_view = view.world_from_view.to_matrix();
     let clip_from_world = view.clip_from_world.unwrap_or(view.clip_from_view * world_from_view.inverse());
     let camera_matrix = glam::Mat4::from_cols_array(&clip_from_world.to_cols_array());
@@ -381,7 +478,15 @@ fn frame(h: &ExtractedHair, view: &ExtractedView, camera: &ExtractedCamera, rend
             let (p, s) = (v.physical_position, v.physical_size);
             [p.x, p.y, s.x, s.y]
         }),
-        ..HairFrame::new(camera_matrix, eye, renderer.light_at(h.model, h.to_light))
+        bounds,
+        ..HairFrame::new(
+            camera_matrix,
+            eye,
+            match bounds {
+                Some((lo, hi)) => HairLight::for_bounds(lo, hi, h.to_light),
+                None => renderer.light_at(h.model, h.to_light),
+            },
+        )
     }
 }
 
@@ -405,6 +510,10 @@ fn opacity_maps(
 ) {
     let encoder = ctx.command_encoder();
     for (h, renderer) in for_view(&hairs, &renderers, view.entity()) {
+        // Skinned hair is posed first (again for each camera: the joints are this frame's).
+        if let Some((_, skin, _)) = renderers.skins.get(&h.entity) {
+            skin.record(encoder);
+        }
         renderer.render_opacity_maps(encoder);
         let (depth, layers) = renderer.opacity_maps();
         for (from, to) in [(depth, &h.maps.depth), (layers, &h.maps.layers)] {
