@@ -540,27 +540,7 @@ impl HairRenderer {
         }
         Ok(())
     }
-}
 
-/// The box of `(lo, hi)` carried by `model`.
-fn box_through(model: Mat4, (lo, hi): (Vec3, Vec3)) -> (Vec3, Vec3) {
-    {
-        if model == Mat4::IDENTITY {
-            return (lo, hi);
-        }
-        (0..8).fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(a, b), k| {
-            let corner = Vec3::new(
-                if k & 1 == 0 { lo.x } else { hi.x },
-                if k & 2 == 0 { lo.y } else { hi.y },
-                if k & 4 == 0 { lo.z } else { hi.z },
-            );
-            let p = model.transform_point3(corner);
-            (a.min(p), b.max(p))
-        })
-    }
-}
-
-impl HairRenderer {
     /// The ids of the assets the renderer was built from (the strips): after a reload whose
     /// [`crate::Changes::touches`] them, build it again.
     pub fn asset_ids(&self) -> &[String] {
@@ -848,16 +828,32 @@ impl HairRenderer {
     }
 }
 
-/// The hair's optical depth across a depth of `depth` through its box: its opacity-weighted area
-/// over the box's volume, times the depth, doubled because hair fills about half its box (a
-/// shell around the head; the factor that brought the blend nearest the sorted composite on the
-/// four layouts of the `hair_view` example), capped where the weight floor takes over.
 /// The factor `model` puts on lengths across a strand: the cube root of its 3×3 determinant
 /// (a uniform scale's own factor).
 fn model_width(model: Mat4) -> f32 {
     glam::Mat3::from_mat4(model).determinant().abs().cbrt()
 }
 
+/// The box of `(lo, hi)` carried by `model`.
+fn box_through(model: Mat4, (lo, hi): (Vec3, Vec3)) -> (Vec3, Vec3) {
+    if model == Mat4::IDENTITY {
+        return (lo, hi);
+    }
+    (0..8).fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(a, b), k| {
+        let corner = Vec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        );
+        let p = model.transform_point3(corner);
+        (a.min(p), b.max(p))
+    })
+}
+
+/// The hair's optical depth across a depth of `depth` through its box: its opacity-weighted area
+/// over the box's volume, times the depth, doubled because hair fills about half its box (a
+/// shell around the head; the factor that brought the blend nearest the sorted composite on the
+/// four layouts of the `hair_view` example), capped where the weight floor takes over.
 fn oit_falloff(s: &StrandsSettings, depth: f32) -> f32 {
     let size = Vec3::from(s.bounds_max) - Vec3::from(s.bounds_min);
     let volume = size.x * size.y * size.z;
