@@ -159,11 +159,28 @@ impl Grid {
             return Grid { lo: DVec3::ZERO, cell: 1.0, dims: [0; 3], cells: Vec::new() };
         }
         let size = (hi - lo).max(DVec3::splat(1e-9));
-        // About one triangle a cell, at most 128 cells a side.
-        let cell = (size.x * size.y * size.z / live.len() as f64).cbrt().max(size.max_element() / 128.0);
-        let dims: [i64; 3] = std::array::from_fn(|k| ((size[k] / cell).ceil() as i64).max(1));
+        // About one triangle a cell, at most 128 cells a side; coarser while the triangles
+        // would be listed more than 32 times each on average (large triangles over fine cells),
+        // so the grid's size stays bounded by the mesh's.
+        let mut cell = (size.x * size.y * size.z / live.len() as f64).cbrt().max(size.max_element() / 128.0);
+        let grid = loop {
+            let dims: [i64; 3] = std::array::from_fn(|k| ((size[k] / cell).ceil() as i64).max(1));
+            let grid = Grid { lo, cell, dims, cells: Vec::new() };
+            let entries: u64 = live
+                .iter()
+                .map(|&t| {
+                    let [a, b, c] = mesh.triangles[t as usize].map(corner);
+                    let (cl, ch) = (grid.coords(a.min(b).min(c)), grid.coords(a.max(b).max(c)));
+                    (0..3).map(|k| (ch[k] - cl[k] + 1) as u64).product::<u64>()
+                })
+                .sum();
+            if entries <= 32 * live.len() as u64 + (1 << 20) || dims == [1, 1, 1] {
+                break grid;
+            }
+            cell *= 2.0;
+        };
+        let dims = grid.dims;
         let mut cells = vec![Vec::new(); (dims[0] * dims[1] * dims[2]) as usize];
-        let grid = Grid { lo, cell, dims, cells: Vec::new() };
         for &t in &live {
             let [a, b, c] = mesh.triangles[t as usize].map(corner);
             let (cl, ch) = (grid.coords(a.min(b).min(c)), grid.coords(a.max(b).max(c)));
@@ -287,6 +304,40 @@ mod tests {
                 .fold(f64::INFINITY, f64::min);
             let (_, _, d) = grid.nearest(&mesh, p, 10.0).expect("a triangle within 10");
             assert!((d - brute).abs() < 1e-12, "{p}: grid {d}, brute force {brute}");
+        }
+    }
+
+    /// Triangles that each span the whole box (a hostile scalp) keep the grid's listing within
+    /// 32 entries a triangle, and the search still finds what a brute-force search finds.
+    #[test]
+    fn large_triangles_keep_the_grid_small() {
+        let mut mesh = sheet(2);
+        mesh.triangles.clear();
+        let mut corners = Vec::new();
+        for i in 0..3000u32 {
+            let f = i as f32 / 3000.0;
+            corners.extend([[0.0, f, 0.0], [1.0, 1.0 - f, 0.0], [0.5 * f, 0.5, 1.0]]);
+            mesh.triangles.push([3 * i, 3 * i + 1, 3 * i + 2]);
+        }
+        mesh.joints = vec![[0, 0, 0, 0]; corners.len()];
+        mesh.weights = vec![[1.0, 0.0, 0.0, 0.0]; corners.len()];
+        mesh.positions = corners;
+        let grid = Grid::new(&mesh);
+        let entries: usize = grid.cells.iter().map(Vec::len).sum();
+        assert!(entries <= 32 * 3000 + (1 << 20), "{entries} entries for 3000 triangles");
+        let corner = |v: u32| DVec3::from(mesh.positions[v as usize].map(f64::from));
+        for p in [DVec3::new(0.3, 0.2, 0.9), DVec3::new(1.2, -0.3, 0.4), DVec3::new(0.5, 0.5, 0.5)] {
+            let brute = mesh
+                .triangles
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(corner);
+                    let w = closest_on_triangle(p, a, b, c);
+                    (a * w[0] + b * w[1] + c * w[2] - p).length()
+                })
+                .fold(f64::INFINITY, f64::min);
+            let (_, _, d) = grid.nearest(&mesh, p, 10.0).unwrap();
+            assert!((d - brute).abs() < 1e-12, "{p}: {d} against {brute}");
         }
     }
 

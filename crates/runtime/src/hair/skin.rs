@@ -122,6 +122,14 @@ impl HairSkin {
         if cpu_scalp.triangles.is_empty() {
             return Err(bad("the scalp has no triangles".into()));
         }
+        // The pass reads the streams as 4-byte words, as hikage writes them.
+        let aligned = |m: &hikage_bundle::MeshData| {
+            m.desc.attributes.iter().chain(m.desc.indices.iter()).all(|a| a.offset % 4 == 0 && a.stride % 4 == 0)
+                && m.desc.indices.as_ref().is_none_or(|i| i.component == hikage_bundle::ComponentType::U32)
+        };
+        if !aligned(binding_mesh) || !aligned(scalp_mesh) {
+            return Err(bad("the binding and the scalp must have 4-byte aligned streams and U32 indices".into()));
+        }
         let words = |a: &hikage_bundle::Accessor| [(a.offset / 4) as u32, a.stride / 4];
         let accessor = |mesh: &hikage_bundle::MeshData, name: &str| {
             mesh.desc.attribute(name).map(words).expect("streams checked when read")
