@@ -148,9 +148,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "\nThe blend against the sorted composite (CPU, same fragments and opacity maps), {SIZE}², strips ≥ 1 px\n"
     );
     println!(
-        "| layout | depth-weighted blend (GPU) RMS | one weight for all (the old blend, CPU) RMS | mean luminance: sorted / GPU |"
+        "| layout | depth-weighted blend (GPU) RMS | one weight for all (the old blend, CPU) RMS | weight from the pixel's front hair (a study, CPU) RMS | mean luminance: sorted / GPU |"
     );
-    println!("|---|---|---|---|");
+    println!("|---|---|---|---|---|");
     for (name, id) in layouts {
         let (one, _) = renderers(&g, &gb, id, SIZE, 1, MAPS)?;
         let asset = cpu.asset(id).ok_or("missing strands")?;
@@ -171,12 +171,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let to_image =
             |v: &[[f32; 4]]| -> Image { v.iter().map(|p| [encode(p[0]), encode(p[1]), encode(p[2])]).collect() };
-        let (sorted, flat) = (to_image(&sorted), to_image(&flat));
+        let front = camera_reference(&strips, &u, &f.light, &maps, ((SIZE, SIZE), points), Composite::FrontRelative);
+        let (sorted, flat, front) = (to_image(&sorted), to_image(&flat), to_image(&front));
         let mask = hair_mask(&sorted, &gpu);
         println!(
-            "| {name} | {:.4} | {:.4} | {:.3} / {:.3} |",
+            "| {name} | {:.4} | {:.4} | {:.4} | {:.3} / {:.3} |",
             difference(&gpu, &sorted, &mask).0,
             difference(&flat, &sorted, &mask).0,
+            difference(&front, &sorted, &mask).0,
             mean_luminance(&sorted),
             mean_luminance(&gpu)
         );

@@ -350,6 +350,10 @@ pub enum Composite {
     Sorted,
     /// The renderer's weighted blended order-independent transparency.
     OrderIndependent,
+    /// A study, not what the renderer does: the same blend with each fragment's weight falling
+    /// off from the nearest hair in its own pixel instead of from the front of the hair's box
+    /// (what a per-pixel front-depth pass would give the blend).
+    FrontRelative,
     /// The nearest fragment, opaque.
     Opaque,
 }
@@ -378,8 +382,9 @@ pub fn camera_reference(
     let eye = Vec3::from_slice(&uniform.eye[..3]);
     let clip: Vec<glam::Vec4> = e.world.iter().map(|w| camera * w.extend(1.0)).collect();
     let to_light = Vec3::from_slice(&uniform.to_light[..3]);
-    // (depth, premultiplied colour, opacity, weight) per fragment, per pixel.
-    let mut pixels: Vec<Vec<(f32, Vec3, f32, f32)>> = vec![Vec::new(); (size.0 * size.1) as usize];
+    // (depth, premultiplied colour, opacity, weight, view depth) per fragment, per pixel.
+    type Fragment = (f32, Vec3, f32, f32, f32);
+    let mut pixels: Vec<Vec<Fragment>> = vec![Vec::new(); (size.0 * size.1) as usize];
     crate::raster::for_each_fragment(&clip, &e.indices, size, false, |i, t, q, z| {
         let v = |k: usize| e.indices[3 * t + k] as usize;
         let mix3 = |f: &dyn Fn(usize) -> Vec3| f(v(0)) * q[0] + f(v(1)) * q[1] + f(v(2)) * q[2];
@@ -391,7 +396,7 @@ pub fn camera_reference(
         let view_depth = mix1(&|k| e.view_depth[k]);
         let vis = hair_visibility(light, (&maps.0, &maps.1), uniform.resolution, lookup, p);
         let c = hair_kajiya_kay(uniform, tangent, to_light, (eye - p).normalize(), base, vis);
-        pixels[i].push((z, c, alpha, hair_oit_weight(uniform, view_depth, alpha)));
+        pixels[i].push((z, c, alpha, hair_oit_weight(uniform, view_depth, alpha), view_depth));
     });
     pixels
         .into_iter()
@@ -403,15 +408,26 @@ pub fn camera_reference(
                 Composite::Sorted => {
                     f.sort_by(|a, b| a.0.total_cmp(&b.0));
                     let (mut c, mut a) = (Vec3::ZERO, 0.0f32);
-                    for (_, color, alpha, _) in f {
+                    for (_, color, alpha, ..) in f {
                         c += color * alpha * (1.0 - a);
                         a += alpha * (1.0 - a);
                     }
                     [c.x, c.y, c.z, a]
                 }
-                Composite::OrderIndependent => {
+                Composite::OrderIndependent | Composite::FrontRelative => {
+                    let front = f.iter().map(|x| x.4).fold(f32::INFINITY, f32::min);
+                    let range = (uniform.depth_range[1] - uniform.depth_range[0]).max(1e-6);
                     let (mut sum, mut weight, mut revealage) = (Vec3::ZERO, 0.0f32, 1.0f32);
-                    for (_, color, alpha, w) in f {
+                    for (_, color, alpha, w, view_depth) in f {
+                        let w = match how {
+                            Composite::FrontRelative => {
+                                alpha
+                                    * (-uniform.oit_falloff * ((view_depth - front) / range).clamp(0.0, 1.0))
+                                        .exp()
+                                        .max(1e-4)
+                            }
+                            _ => w,
+                        };
                         sum += color * alpha * w;
                         weight += alpha * w;
                         revealage *= 1.0 - alpha;
@@ -420,7 +436,7 @@ pub fn camera_reference(
                     [c.x, c.y, c.z, 1.0 - revealage]
                 }
                 Composite::Opaque => {
-                    let (_, c, _, _) = f.into_iter().min_by(|a, b| a.0.total_cmp(&b.0)).expect("not empty");
+                    let (_, c, ..) = f.into_iter().min_by(|a, b| a.0.total_cmp(&b.0)).expect("not empty");
                     [c.x, c.y, c.z, 1.0]
                 }
             }
