@@ -279,13 +279,25 @@ mod tests {
         m
     }
 
+    /// The distance from `p` to the mesh, every triangle tried.
+    fn brute_force_distance(mesh: &SkinnedMesh, p: DVec3) -> f64 {
+        let corner = |v: u32| DVec3::from(mesh.positions[v as usize].map(f64::from));
+        mesh.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(corner);
+                let w = closest_on_triangle(p, a, b, c);
+                (a * w[0] + b * w[1] + c * w[2] - p).length()
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
     /// The grid finds the same nearest point as a search of every triangle, for roots on,
     /// above, below and beside the sheet.
     #[test]
     fn the_grid_finds_what_a_brute_force_search_finds() {
         let mesh = sheet(24);
         let grid = Grid::new(&mesh);
-        let corner = |v: u32| DVec3::from(mesh.positions[v as usize].map(f64::from));
         let mut state = 12345u64;
         let mut next = || {
             state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -293,15 +305,7 @@ mod tests {
         };
         for _ in 0..2000 {
             let p = DVec3::new(next() * 1.6 - 0.3, next() * 0.8 - 0.4, next() * 1.6 - 0.3);
-            let brute = mesh
-                .triangles
-                .iter()
-                .map(|t| {
-                    let [a, b, c] = t.map(corner);
-                    let w = closest_on_triangle(p, a, b, c);
-                    (a * w[0] + b * w[1] + c * w[2] - p).length()
-                })
-                .fold(f64::INFINITY, f64::min);
+            let brute = brute_force_distance(&mesh, p);
             let (_, _, d) = grid.nearest(&mesh, p, 10.0).expect("a triangle within 10");
             assert!((d - brute).abs() < 1e-12, "{p}: grid {d}, brute force {brute}");
         }
@@ -325,17 +329,8 @@ mod tests {
         let grid = Grid::new(&mesh);
         let entries: usize = grid.cells.iter().map(Vec::len).sum();
         assert!(entries <= 32 * 3000 + (1 << 20), "{entries} entries for 3000 triangles");
-        let corner = |v: u32| DVec3::from(mesh.positions[v as usize].map(f64::from));
         for p in [DVec3::new(0.3, 0.2, 0.9), DVec3::new(1.2, -0.3, 0.4), DVec3::new(0.5, 0.5, 0.5)] {
-            let brute = mesh
-                .triangles
-                .iter()
-                .map(|t| {
-                    let [a, b, c] = t.map(corner);
-                    let w = closest_on_triangle(p, a, b, c);
-                    (a * w[0] + b * w[1] + c * w[2] - p).length()
-                })
-                .fold(f64::INFINITY, f64::min);
+            let brute = brute_force_distance(&mesh, p);
             let (_, _, d) = grid.nearest(&mesh, p, 10.0).unwrap();
             assert!((d - brute).abs() < 1e-12, "{p}: {d} against {brute}");
         }
