@@ -283,7 +283,11 @@ fn extract(
                         Some(glam::Mat4::from_cols_array(&world.to_cols_array()))
                     })
                     .collect();
-                let Some(matrices) = matrices.filter(|m| m.len() == skin.joints.len()) else { continue };
+                // A skin of other joints than the scalp's is said on the entity (`check_skin`).
+                let baked = scalp.asset.settings.scalp().map_or(0, |s| s.joints.len());
+                let Some(matrices) = matrices.filter(|m| m.len() == skin.joints.len() && m.len() == baked) else {
+                    continue;
+                };
                 Some(ExtractedSkin { binding: binding.clone(), scalp: scalp.clone(), joints: matrices })
             }
         };
