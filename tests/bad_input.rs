@@ -531,9 +531,8 @@ fn a_scalp_that_cannot_take_the_hair_is_refused() {
     dir.write("character.glb", &character.glb);
     dir.write("torus.glb", hikage_devkit::synth::torus_glb(2.0, 0.5, 12, 8, (1.0, 1.0)));
     let text = String::from_utf8_lossy(&character.glb[20..]).into_owned();
-    let unweighted = character.glb.clone();
     let at = text.find("\"WEIGHTS_0\"").expect("the GLB names its weights") + 20;
-    let mut unweighted = unweighted;
+    let mut unweighted = character.glb.clone();
     unweighted[at..at + 11].copy_from_slice(b"\"WEIGHTS_9\"");
     dir.write("unweighted.glb", &unweighted);
     dir.write("text.glb", b"solid nothing");

@@ -9,7 +9,7 @@ use hikage_devkit::synth::{self, Character};
 use hikage_runtime::glam::camera::rh::proj::directx;
 use hikage_runtime::glam::camera::rh::view::look_at_mat4;
 use hikage_runtime::glam::{Mat4, Vec3};
-use hikage_runtime::hair::reference::{hair_skin, skin_strand};
+use hikage_runtime::hair::reference::{hair_skin, skin_polylines};
 use hikage_runtime::hair::{HairFrame, HairLight, HairOptions, HairRenderer, HairSkin};
 use hikage_runtime::{CpuBundle, GpuBundle, wgpu};
 use hikage_scenes::hair_scene::{Ground, HairBlend, render_frame};
@@ -177,7 +177,9 @@ fn skinned_hair_draws_as_the_same_hair_baked_posed() {
         let joints = synth::pose(t);
         // The same strands posed on the CPU (each strand moved rigidly, as the reference poses
         // records) and baked static.
-        let posed = posed_strands(&character.hair, &bindings, &scalp, &joints);
+        let hair = &character.hair;
+        let points = skin_polylines(&hair.segments, &hair.points, &bindings, &scalp, &joints);
+        let posed = Strands { points, ..hair.clone() };
         let tag = (t * 100.0) as u32;
         dir.write(&format!("posed_{tag}.hair"), hikage_bake::strands::cyhair::encode(&posed, "posed"));
         let out = format!("static_{tag}");
@@ -217,18 +219,4 @@ fn skinned_hair_draws_as_the_same_hair_baked_posed() {
             assert!(agree as f64 >= 0.999 * pixels as f64, "pose {t}, {blend:?}: {agree} of {pixels}");
         }
     }
-}
-
-/// `s` with every strand moved as the CPU reference poses its records.
-fn posed_strands(s: &Strands, bindings: &[hikage_bundle::StrandBinding], scalp: &Scalp, joints: &[Mat4]) -> Strands {
-    let mut out = s.clone();
-    let mut at = 0;
-    for (strand, &segments) in s.segments.iter().enumerate() {
-        let (rotation, rest, posed) = skin_strand(scalp, &bindings[strand], joints);
-        for p in &mut out.points[at..=at + segments as usize] {
-            *p = (posed + rotation * (Vec3::from(*p) - rest)).to_array();
-        }
-        at += segments as usize + 1;
-    }
-    out
 }

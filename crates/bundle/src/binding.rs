@@ -129,9 +129,7 @@ impl Scalp {
             }
         }
         for (v, (j, w)) in self.joints.iter().zip(&self.weights).enumerate() {
-            if let Some(&bad) =
-                j.iter().zip(w).find(|(_, w)| **w > 0.0).map(|(j, _)| j).filter(|&&j| j as usize >= joints)
-            {
+            if let Some((&bad, _)) = j.iter().zip(w).find(|(j, w)| **w > 0.0 && **j as usize >= joints) {
                 return Err(format!("scalp vertex {v} names joint {bad}, past the skin's {joints}"));
             }
             let sum: f32 = w.iter().sum();
@@ -181,8 +179,12 @@ mod tests {
                 .zip(scalp.weights.iter().flatten())
                 .all(|(a, b)| (a - b).abs() <= 0.5 / 65535.0)
         );
-        // Joint 300 is past a 3-joint skin; a 301-joint skin takes it.
+        // Joint 300 is past a 3-joint skin; a 301-joint skin takes it. Joint 2, weighted second
+        // at vertex 1, is past a 2-joint skin.
         assert!(read.check(&back[..1], 3, 1).unwrap_err().contains("joint 300"));
+        let mut second = read.clone();
+        second.joints[1] = [0, 2, 1, 0];
+        assert!(second.check(&back[..1], 2, 1).unwrap_err().contains("vertex 1 names joint 2"));
         read.check(&back[..1], 301, 1).unwrap();
         assert!(read.check(&back, 301, 2).unwrap_err().contains("triangle 70000"));
         assert!(read.check(&back[..1], 301, 2).unwrap_err().contains("one per strand"));

@@ -518,7 +518,7 @@ fn hair_mistakes_are_said_on_the_entity() {
 #[test]
 fn hair_follows_a_skinned_mesh_as_if_baked_posed() {
     use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
-    use hikage_runtime::hair::reference::{skin_posed_vertex, skin_strand};
+    use hikage_runtime::hair::reference::{skin_bounds, skin_polylines};
     if !gpu_or_skip("hair_follows_a_skinned_mesh_as_if_baked_posed") {
         return;
     }
@@ -540,24 +540,9 @@ fn hair_follows_a_skinned_mesh_as_if_baked_posed() {
     let bindings = hikage_bundle::binding::read_binding(&binding_mesh).unwrap();
     let t = 0.3f32;
     let joints = hikage_devkit::synth::pose(t);
-    let mut posed = s.clone();
-    let mut at = 0;
-    for (strand, &segments) in s.segments.iter().enumerate() {
-        let (rotation, rest, there) = skin_strand(&scalp, &bindings[strand], &joints);
-        for p in &mut posed.points[at..=at + segments as usize] {
-            *p = (there + rotation * (glam::Vec3::from(*p) - rest)).to_array();
-        }
-        at += segments as usize + 1;
-    }
+    let posed = Strands { points: skin_polylines(&s.segments, &s.points, &bindings, &scalp, &joints), ..s.clone() };
     // The posed copy carries the skin's box and the density the rest pose has in its own box.
-    let (lo, hi) = (0..scalp.positions.len() as u32).fold(
-        (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY)),
-        |(lo, hi), v| {
-            let p = skin_posed_vertex(&scalp, v, &joints);
-            let r = glam::Vec3::splat(scalp.reach[v as usize]);
-            (lo.min(p - r), hi.max(p + r))
-        },
-    );
+    let (lo, hi) = skin_bounds(&scalp, &joints);
     let here = build(s, &sets);
     let here_settings = here.settings(s, &sets, None);
     let there = build(&posed, &sets);

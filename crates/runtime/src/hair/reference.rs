@@ -421,6 +421,37 @@ pub fn hair_skin(
         .collect()
 }
 
+/// The box the hair bound to `scalp` lies in when posed by `joints`: every skinned scalp vertex
+/// grown by its reach (each strand point lies within its vertex's reach of its root's point,
+/// and that point within its triangle).
+pub fn skin_bounds(scalp: &hikage_bundle::Scalp, joints: &[glam::Mat4]) -> (Vec3, Vec3) {
+    (0..scalp.positions.len()).fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), v| {
+        let p = skin_posed_vertex(scalp, v as u32, joints);
+        let r = Vec3::splat(scalp.reach[v]);
+        (lo.min(p - r), hi.max(p + r))
+    })
+}
+
+/// Strand polylines (`segments[s] + 1` points each, strand after strand, as a `.hair` file
+/// holds them) posed as [`hair_skin`] poses their records: for tools that re-export posed hair.
+pub fn skin_polylines(
+    segments: &[u16],
+    points: &[[f32; 3]],
+    bindings: &[hikage_bundle::StrandBinding],
+    scalp: &hikage_bundle::Scalp,
+    joints: &[glam::Mat4],
+) -> Vec<[f32; 3]> {
+    let mut out = Vec::with_capacity(points.len());
+    let mut at = 0;
+    for (&n, binding) in segments.iter().zip(bindings) {
+        let (rotation, rest, posed) = skin_strand(scalp, binding, joints);
+        let strand = &points[at..(at + n as usize + 1).min(points.len())];
+        out.extend(strand.iter().map(|&p| (posed + rotation * (Vec3::from(p) - rest)).to_array()));
+        at += n as usize + 1;
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -151,12 +151,12 @@ impl HairSkin {
             barycentric: accessor(binding_mesh, "barycentric"),
             _pad: 0,
         };
-        let storage = |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| {
+        let storage = |label: &str, bytes: &[u8]| {
             let size = (bytes.len() as u64).div_ceil(4).max(1) * 4;
             let buffer = device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
                 size,
-                usage: usage | wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             });
             let mut padded = bytes.to_vec();
@@ -165,11 +165,11 @@ impl HairSkin {
             buffer
         };
         let built = gpu::checked(device, &id, || {
-            let binding_buffer = storage("hikage hair binding", &binding_mesh.bytes, wgpu::BufferUsages::empty());
-            let scalp_buffer = storage("hikage hair scalp", &scalp_mesh.bytes, wgpu::BufferUsages::empty());
+            let binding_buffer = storage("hikage hair binding", &binding_mesh.bytes);
+            let scalp_buffer = storage("hikage hair scalp", &scalp_mesh.bytes);
             let identity: Vec<u8> =
                 (0..joint_names.len()).flat_map(|_| bytemuck::bytes_of(&Mat4::IDENTITY).to_vec()).collect();
-            let joints = storage("hikage hair joints", &identity, wgpu::BufferUsages::empty());
+            let joints = storage("hikage hair joints", &identity);
             let posed = device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("hikage hair posed records"),
                 size: strips.buffer.size(),
@@ -292,14 +292,7 @@ impl HairSkin {
 
     /// The box the hair lies in when posed by `joints` (see [`update`](Self::update)).
     pub fn bounds(&self, joints: &[Mat4]) -> (Vec3, Vec3) {
-        (0..self.scalp.positions.len()).fold(
-            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-            |(lo, hi), v| {
-                let p = super::reference::skin_posed_vertex(&self.scalp, v as u32, joints);
-                let r = Vec3::splat(self.scalp.reach[v]);
-                (lo.min(p - r), hi.max(p + r))
-            },
-        )
+        super::reference::skin_bounds(&self.scalp, joints)
     }
 
     /// Records the skinning pass into `encoder`: every record posed by the joint matrices of

@@ -61,8 +61,9 @@ struct ExtractedHairs(Vec<ExtractedHair>);
 /// One hair's renderer for one camera, and what it was built for.
 struct ViewHair {
     renderer: HairRenderer,
-    /// The records, opacity-map size, colour format and skin it was built for.
-    built_for: (usize, u32, wgpu::TextureFormat, usize),
+    /// The records, opacity-map size, colour format and skin (binding, records; none: 0, 0) it
+    /// was built for.
+    built_for: (usize, u32, wgpu::TextureFormat, (usize, usize)),
     /// The camera's size its blend targets have.
     size: (u32, u32),
 }
@@ -74,12 +75,19 @@ struct ViewHair {
 struct HairRenderers {
     views: HashMap<(Entity, Entity), ViewHair>,
     uploads: HashMap<Entity, (usize, GpuBundle)>,
-    /// Each skinned hair's skin (by the binding it was built from and the upload it poses),
-    /// and the box its hair lies in this frame.
-    skins: HashMap<Entity, (usize, HairSkin, (glam::Vec3, glam::Vec3))>,
+    /// Each skinned hair's skin.
+    skins: HashMap<Entity, PosedHair>,
     failed: Vec<(Entity, usize)>,
     resolve: Option<DepthResolve>,
     resolved: HashMap<Entity, wgpu::Texture>,
+}
+
+/// A skinned hair's skin, what it was built for (binding, records) and the box its hair lies in
+/// this frame.
+struct PosedHair {
+    built_for: (usize, usize),
+    skin: HairSkin,
+    bounds: (glam::Vec3, glam::Vec3),
 }
 
 /// The depth a camera with MSAA gives the hair: its multisampled depth resolved to one sample
@@ -352,16 +360,16 @@ fn prepare(
         let skin_key = match &h.skin {
             None => {
                 renderers.skins.remove(&h.entity);
-                0
+                (0, 0)
             }
             Some(skin) => {
-                let wanted = key(&skin.binding) ^ key(&h.strips).rotate_left(17);
-                if renderers.skins.get(&h.entity).is_none_or(|s| s.0 != wanted) {
+                let wanted = (key(&skin.binding), key(&h.strips));
+                if renderers.skins.get(&h.entity).is_none_or(|s| s.built_for != wanted) {
                     let gpu = &renderers.uploads[&h.entity].1;
                     match HairSkin::new(device, queue, gpu, &skin.binding, &skin.scalp) {
                         Ok(built) => {
-                            let empty = (glam::Vec3::ZERO, glam::Vec3::ZERO);
-                            renderers.skins.insert(h.entity, (wanted, built, empty));
+                            let bounds = (glam::Vec3::ZERO, glam::Vec3::ZERO);
+                            renderers.skins.insert(h.entity, PosedHair { built_for: wanted, skin: built, bounds });
                         }
                         Err(e) => {
                             bevy_log::error!("hikage: hair `{strips_id}`: {e}");
@@ -371,8 +379,8 @@ fn prepare(
                     }
                 }
                 let entry = renderers.skins.get_mut(&h.entity).expect("built above");
-                match entry.1.update(queue, &skin.joints) {
-                    Ok(bounds) => entry.2 = bounds,
+                match entry.skin.update(queue, &skin.joints) {
+                    Ok(bounds) => entry.bounds = bounds,
                     Err(e) => {
                         bevy_log::error!("hikage: hair `{strips_id}`: {e}");
                         continue;
@@ -412,8 +420,8 @@ fn prepare(
                 options.draw.depth_compare = wgpu::CompareFunction::GreaterEqual;
                 let built = HairRenderer::new(device, queue, &renderers.uploads[&h.entity].1, strips_id, &options)
                     .and_then(|mut renderer| {
-                        if let Some((_, skin, _)) = renderers.skins.get(&h.entity) {
-                            renderer.follow(skin)?;
+                        if let Some(posed) = renderers.skins.get(&h.entity) {
+                            renderer.follow(&posed.skin)?;
                         }
                         Ok(renderer)
                     });
@@ -429,7 +437,7 @@ fn prepare(
                     }
                 }
             }
-            let bounds = renderers.skins.get(&h.entity).map(|s| s.2);
+            let bounds = renderers.skins.get(&h.entity).map(|s| s.bounds);
             let v = renderers.views.get_mut(&slot).expect("built above");
             if v.size != (size.x, size.y) {
                 v.size = (size.x, size.y);
@@ -515,8 +523,8 @@ fn opacity_maps(
     let encoder = ctx.command_encoder();
     for (h, renderer) in for_view(&hairs, &renderers, view.entity()) {
         // Skinned hair is posed first (again for each camera: the joints are this frame's).
-        if let Some((_, skin, _)) = renderers.skins.get(&h.entity) {
-            skin.record(encoder);
+        if let Some(posed) = renderers.skins.get(&h.entity) {
+            posed.skin.record(encoder);
         }
         renderer.render_opacity_maps(encoder);
         let (depth, layers) = renderer.opacity_maps();
