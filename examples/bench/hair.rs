@@ -98,7 +98,7 @@ fn score_each_alone(s: &hikage_bake::strands::Strands, base: &StripSets, resolut
 /// best of 3).
 fn camera_frames() {
     use hikage_runtime::glam::Vec3;
-    use hikage_runtime::hair::{HairFrame, HairLod, Lod};
+    use hikage_runtime::hair::{BlendWeight, HairFrame, HairLod, Lod};
     use hikage_runtime::{CpuBundle, GpuBundle};
     use hikage_scenes::hair_view::{orbit_camera, render_view, renderers};
     let Ok(g) = hikage_scenes::headless::Headless::new() else {
@@ -133,6 +133,15 @@ fn camera_frames() {
         filtered * 1e3,
         own * 1e3,
         filtered / own
+    );
+    let by_depth =
+        hikage_scenes::hair_view::renderer(&g, &gb, "head.strips", 512, 256, BlendWeight::Depth).expect("a renderer");
+    let depth_weighted = best_of(3, || render_view(&g, &by_depth, &frame(1.0, 0), 512, 1)).0;
+    println!(
+        "| blend weighted by the camera's opacity layers (the default; ≥ 1 px) | {:.0} ms | weighted by depth: {:.0} ms | {:.2}× |",
+        filtered * 1e3,
+        depth_weighted * 1e3,
+        filtered / depth_weighted
     );
     for level in 1..4 {
         let t = time(&frame(1.0, level));

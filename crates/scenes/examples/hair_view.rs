@@ -18,11 +18,11 @@ use std::time::Instant;
 
 use hikage_runtime::glam::Vec3;
 use hikage_runtime::hair::reference::StripArrays;
-use hikage_runtime::hair::{HairFrame, HairLod, HairRenderer, Lod};
+use hikage_runtime::hair::{BlendWeight, HairFrame, HairLod, HairRenderer, Lod};
 use hikage_runtime::{CpuBundle, GpuBundle};
 use hikage_scenes::hair_scene::{Composite, camera_reference, read_opacity_maps};
 use hikage_scenes::hair_view::{
-    Image, difference, flicker, hair_mask, mean_luminance, noise, orbit_camera, render_view, renderers,
+    Image, difference, flicker, hair_mask, mean_luminance, noise, orbit_camera, render_view, renderer, renderers,
 };
 use hikage_scenes::headless::Headless;
 
@@ -143,44 +143,55 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             );
         }
     }
-
     println!(
         "\nThe blend against the sorted composite (CPU, same fragments and opacity maps), {SIZE}², strips ≥ 1 px\n"
     );
     println!(
-        "| layout | depth-weighted blend (GPU) RMS | one weight for all (the old blend, CPU) RMS | weight from the pixel's front hair (a study, CPU) RMS | mean luminance: sorted / GPU |"
+        "| layout | weighted by the camera layers (GPU, default) RMS | weighted by depth (GPU) RMS | one weight for all (CPU) RMS | mean luminance: sorted / layers / depth | frame time: layers / depth |"
     );
-    println!("|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|");
     for (name, id) in layouts {
         let (one, _) = renderers(&g, &gb, id, SIZE, 1, MAPS)?;
+        let by_depth = renderer(&g, &gb, id, SIZE, MAPS, BlendWeight::Depth)?;
         let asset = cpu.asset(id).ok_or("missing strands")?;
         let strips = StripArrays::from_mesh(asset.mesh().ok_or("not a mesh")?, one.settings()).ok_or("not strands")?;
         let f = frame(&one, 0.0, 1.0, 0);
         let gpu = render_view(&g, &one, &f, SIZE, 1);
+        let gpu_depth = render_view(&g, &by_depth, &f, SIZE, 1);
         let maps = read_opacity_maps(&g, &one);
         let u = one.uniform(&f);
         let points = strips.points_of_level(0);
-        let sorted = camera_reference(&strips, &u, &f.light, &maps, ((SIZE, SIZE), points), Composite::Sorted);
-        // The old weight reached its cap for every fragment: the same as one weight for all.
-        let flat_u = hikage_runtime::hair::HairUniform { oit_falloff: 0.0, ..u };
-        let flat =
-            camera_reference(&strips, &flat_u, &f.light, &maps, ((SIZE, SIZE), points), Composite::OrderIndependent);
         let encode = |c: f32| {
             let c = c.clamp(0.0, 1.0);
             if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }
         };
         let to_image =
             |v: &[[f32; 4]]| -> Image { v.iter().map(|p| [encode(p[0]), encode(p[1]), encode(p[2])]).collect() };
-        let front = camera_reference(&strips, &u, &f.light, &maps, ((SIZE, SIZE), points), Composite::FrontRelative);
-        let (sorted, flat, front) = (to_image(&sorted), to_image(&flat), to_image(&front));
+        let sorted =
+            to_image(&camera_reference(&strips, &u, &f.light, &maps, ((SIZE, SIZE), points), Composite::Sorted));
+        // The first blend's weight reached its cap for every fragment: the same as one weight for all.
+        let flat_u = hikage_runtime::hair::HairUniform { oit_falloff: 0.0, ..u };
+        let flat = to_image(&camera_reference(
+            &strips,
+            &flat_u,
+            &f.light,
+            &maps,
+            ((SIZE, SIZE), points),
+            Composite::DepthWeighted,
+        ));
         let mask = hair_mask(&sorted, &gpu);
+        let (time_layers, time_depth) = (frame_time(&g, &one, &f), frame_time(&g, &by_depth, &f));
         println!(
-            "| {name} | {:.4} | {:.4} | {:.4} | {:.3} / {:.3} |",
+            "| {name} | {:.4} | {:.4} | {:.4} | {:.3} / {:.3} / {:.3} | {:.0} / {:.0} ms ({:.2}×) |",
             difference(&gpu, &sorted, &mask).0,
+            difference(&gpu_depth, &sorted, &mask).0,
             difference(&flat, &sorted, &mask).0,
-            difference(&front, &sorted, &mask).0,
             mean_luminance(&sorted),
-            mean_luminance(&gpu)
+            mean_luminance(&gpu),
+            mean_luminance(&gpu_depth),
+            1000.0 * time_layers,
+            1000.0 * time_depth,
+            time_layers / time_depth,
         );
     }
 

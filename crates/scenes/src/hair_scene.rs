@@ -348,12 +348,11 @@ pub fn high_frequency_energy(v: &[f32], (w, h): (u32, u32)) -> f64 {
 pub enum Composite {
     /// Sorted by depth, blended front to back: the exact answer.
     Sorted,
-    /// The renderer's weighted blended order-independent transparency.
+    /// The renderer's weighted blended order-independent transparency, each fragment weighted
+    /// by the pixel's camera layers (`BlendWeight::Layers`, the default).
     OrderIndependent,
-    /// A study, not what the renderer does: the same blend with each fragment's weight falling
-    /// off from the nearest hair in its own pixel instead of from the front of the hair's box
-    /// (what a per-pixel front-depth pass would give the blend).
-    FrontRelative,
+    /// The same blend weighted by depth across the hair's box (`BlendWeight::Depth`).
+    DepthWeighted,
     /// The nearest fragment, opaque.
     Opaque,
 }
@@ -373,7 +372,8 @@ pub fn camera_reference(
 ) -> Vec<[f32; 4]> {
     use hikage_runtime::hair::Lookup;
     use hikage_runtime::hair::reference::{
-        Facing, coverage, expand, hair_kajiya_kay, hair_oit_weight, hair_visibility,
+        Facing, coverage, expand, hair_camera_layers, hair_kajiya_kay, hair_layered_weight, hair_oit_weight,
+        hair_visibility,
     };
     let lookup = if uniform.lookup == Lookup::Bilinear.code() { Lookup::Bilinear } else { Lookup::Nearest };
     let facing = if how == Composite::Opaque { Facing::CameraOpaque } else { Facing::Camera };
@@ -414,18 +414,12 @@ pub fn camera_reference(
                     }
                     [c.x, c.y, c.z, a]
                 }
-                Composite::OrderIndependent | Composite::FrontRelative => {
-                    let front = f.iter().map(|x| x.4).fold(f32::INFINITY, f32::min);
-                    let range = (uniform.depth_range[1] - uniform.depth_range[0]).max(1e-6);
+                Composite::OrderIndependent | Composite::DepthWeighted => {
+                    let layers = hair_camera_layers(uniform, f.iter().map(|x| (x.4, x.2)));
                     let (mut sum, mut weight, mut revealage) = (Vec3::ZERO, 0.0f32, 1.0f32);
                     for (_, color, alpha, w, view_depth) in f {
                         let w = match how {
-                            Composite::FrontRelative => {
-                                alpha
-                                    * (-uniform.oit_falloff * ((view_depth - front) / range).clamp(0.0, 1.0))
-                                        .exp()
-                                        .max(1e-4)
-                            }
+                            Composite::OrderIndependent => hair_layered_weight(uniform, &layers, view_depth, alpha),
                             _ => w,
                         };
                         sum += color * alpha * w;

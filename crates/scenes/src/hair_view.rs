@@ -5,7 +5,7 @@
 //! GPU tests.
 
 use glam::{Mat4, Vec3};
-use hikage_runtime::hair::{HairFrame, HairOptions, HairRenderer};
+use hikage_runtime::hair::{BlendWeight, HairFrame, HairOptions, HairRenderer};
 use hikage_runtime::{GpuBundle, RuntimeError};
 
 use crate::hair_scene::{HairBlend, render_frame, srgb_to_linear};
@@ -27,7 +27,7 @@ pub fn orbit_camera(lo: Vec3, hi: Vec3, degrees: f32) -> (Mat4, Vec3) {
 }
 
 /// Renderers of `strips` for a `size` frame and for `factor` times it (the reference), with
-/// `resolution`² opacity maps.
+/// `resolution`² opacity maps and the default blend.
 pub fn renderers(
     g: &Headless,
     gpu: &GpuBundle,
@@ -36,15 +36,26 @@ pub fn renderers(
     factor: u32,
     resolution: u32,
 ) -> Result<(HairRenderer, HairRenderer), RuntimeError> {
-    let options = |side: u32| {
-        let mut o = HairOptions { resolution, ..HairOptions::new(COLOR_FORMAT, (side, side)) };
-        o.draw.depth_format = Some(DEPTH_FORMAT);
-        o
-    };
+    let blend = BlendWeight::default();
     Ok((
-        HairRenderer::new(&g.device, &g.queue, gpu, strips, &options(size))?,
-        HairRenderer::new(&g.device, &g.queue, gpu, strips, &options(size * factor))?,
+        renderer(g, gpu, strips, size, resolution, blend)?,
+        renderer(g, gpu, strips, size * factor, resolution, blend)?,
     ))
+}
+
+/// The renderer of `strips` for a `side`² frame with depth, `resolution`² opacity maps and the
+/// blend weighted by `blend`.
+pub fn renderer(
+    g: &Headless,
+    gpu: &GpuBundle,
+    strips: &str,
+    side: u32,
+    resolution: u32,
+    blend: BlendWeight,
+) -> Result<HairRenderer, RuntimeError> {
+    let mut options = HairOptions { resolution, blend, ..HairOptions::new(COLOR_FORMAT, (side, side)) };
+    options.draw.depth_format = Some(DEPTH_FORMAT);
+    HairRenderer::new(&g.device, &g.queue, gpu, strips, &options)
 }
 
 /// `frame` drawn by `renderer` (whose frame targets are `size·factor` square) over black, the

@@ -6,7 +6,9 @@
 //! across the strand so the strip faces whoever looks (the light in the light passes, the camera
 //! when shading). Either set — thin shading strips or the wide faint opacity set — can be drawn
 //! into the opacity maps; the camera always draws the shading set, blended at its own opacity
-//! (weighted blended order-independent transparency) or opaque, shaded with Kajiya-Kay.
+//! (weighted blended order-independent transparency, each fragment weighted by the opacity of
+//! the hair in front of it in its pixel, from 8 cumulative camera layers of view depth) or
+//! opaque, shaded with Kajiya-Kay.
 //!
 //! Light passes are orthographic with the depth range of the hair's bounding box (from the
 //! manifest): a depth map of the nearest hair `z0`, then 4 cumulative opacity layers with far
@@ -29,7 +31,7 @@ use glam::camera::rh::view::look_to_mat4;
 use glam::{Mat4, Vec3};
 
 pub use renderer::{
-    AUTO_LOD_PIXELS, HairFrame, HairLod, HairOptions, HairRenderer, HairStyle, HairUniform, Lod, Lookup,
+    AUTO_LOD_PIXELS, BlendWeight, HairFrame, HairLod, HairOptions, HairRenderer, HairStyle, HairUniform, Lod, Lookup,
 };
 pub use skin::{HairSkin, SKIN_WORKGROUP};
 

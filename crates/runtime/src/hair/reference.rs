@@ -364,6 +364,48 @@ pub fn hair_oit_weight(u: &HairUniform, z: f32, a: f32) -> f32 {
     a * (-u.oit_falloff * t).exp().max(1e-4)
 }
 
+/// `hair_camera_boundary`: far boundary (view depth) of camera layer `k` (1-based, 1…8): the
+/// hair box's nearest distance plus its depth range × k(k+1)/72.
+pub fn hair_camera_boundary(u: &HairUniform, k: usize) -> f32 {
+    let [near, far] = u.depth_range;
+    near + (far - near).max(1e-6) * (k * (k + 1) / 2) as f32 / 36.0
+}
+
+/// The camera layers of one pixel: each of `fragments` (view depth, opacity) added to every
+/// layer whose far boundary lies beyond it.
+pub fn hair_camera_layers(u: &HairUniform, fragments: impl IntoIterator<Item = (f32, f32)>) -> [f32; 8] {
+    let bounds: [f32; 8] = std::array::from_fn(|k| hair_camera_boundary(u, k + 1));
+    let mut layers = [0.0f32; 8];
+    for (z, alpha) in fragments {
+        for (layer, &b) in layers.iter_mut().zip(&bounds) {
+            if z < b {
+                *layer += alpha;
+            }
+        }
+    }
+    layers
+}
+
+/// `hair_opacity_in_front`: the opacity of a pixel's hair in front of view depth `z`, its
+/// camera `layers` interpolated between their boundaries.
+pub fn hair_opacity_in_front(u: &HairUniform, layers: &[f32; 8], z: f32) -> f32 {
+    let (mut lo, mut before) = (u.depth_range[0], 0.0);
+    for (k, &layer) in layers.iter().enumerate() {
+        let hi = hair_camera_boundary(u, k + 1);
+        if z < hi {
+            return before + (layer - before) * ((z - lo) / (hi - lo).max(1e-9)).clamp(0.0, 1.0);
+        }
+        (lo, before) = (hi, layer);
+    }
+    layers[7]
+}
+
+/// `hair_layered_weight`: a fragment's weight in the blend weighted by the camera layers, at
+/// view depth `z` with opacity `a`: the light the hair in front of it lets through.
+pub fn hair_layered_weight(u: &HairUniform, layers: &[f32; 8], z: f32, a: f32) -> f32 {
+    a * (-hair_opacity_in_front(u, layers, z)).exp().max(1e-4)
+}
+
 /// `skin_posed_vertex`: scalp vertex `v` skinned by `joints` (Σ weight × joint matrix ×
 /// bind-pose position, over the vertex's joints with a weight above 0).
 pub fn skin_posed_vertex(scalp: &hikage_bundle::Scalp, v: u32, joints: &[glam::Mat4]) -> Vec3 {

@@ -264,16 +264,37 @@ pub struct HairOptions {
     pub draw: DrawOptions,
     /// Opacity-map texels per side.
     pub resolution: u32,
-    /// The frame's size in pixels (the order-independent blend keeps two targets of it;
-    /// [`HairRenderer::resize`] changes it).
+    /// The frame's size in pixels (the order-independent blend keeps two targets of it, four
+    /// with [`BlendWeight::Layers`]; [`HairRenderer::resize`] changes it).
     pub size: (u32, u32),
+    /// How the camera's order-independent blend weighs each fragment.
+    pub blend: BlendWeight,
 }
 
 impl HairOptions {
-    /// 256² opacity maps, a `size` frame drawn into `color_format` with no depth, group 0.
+    /// 256² opacity maps, a `size` frame drawn into `color_format` with no depth, group 0, the
+    /// blend weighted by the hair in front of each fragment ([`BlendWeight::Layers`]).
     pub fn new(color_format: wgpu::TextureFormat, size: (u32, u32)) -> HairOptions {
-        HairOptions { draw: DrawOptions::new(color_format), resolution: 256, size }
+        HairOptions { draw: DrawOptions::new(color_format), resolution: 256, size, blend: BlendWeight::default() }
     }
+}
+
+/// How the camera's order-independent blend weighs a fragment against the others in its pixel.
+/// Sorted front to back, a fragment counts by the light its pixel's hair in front of it lets
+/// through; the blend has no order, so it estimates that.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BlendWeight {
+    /// From the hair in front of the fragment in its own pixel: a camera pass first adds every
+    /// fragment's opacity into 8 cumulative layers of view depth across the hair's box (two
+    /// `Rgba16Float` targets of the frame's size), and each fragment's weight is
+    /// `exp(−opacity in front)`, interpolated between the layers' boundaries. One more draw of
+    /// the strips, 16 bytes a pixel; it follows dense hair whose front strands hide the rest,
+    /// where one falloff per hair cannot.
+    #[default]
+    Layers,
+    /// From the fragment's depth across the hair's box alone, falling off by the hair's mean
+    /// optical depth: no extra pass and no extra targets, close on sparse or evenly dense hair.
+    Depth,
 }
 
 /// Hair strips with anti-aliased shadows (seed 004): deep opacity maps from a light, drawn from
@@ -281,9 +302,10 @@ impl HairOptions {
 /// Kajiya-Kay and shadowed through the maps.
 ///
 /// The camera draws the shading set blended at each strand's own opacity with weighted blended
-/// order-independent transparency (McGuire & Bavoil 2013): no sorting, two frame-sized
-/// targets and a composite over the scene; [`draw_opaque`](HairRenderer::draw_opaque) draws it
-/// opaque instead. A frame records, into the game's encoder:
+/// order-independent transparency (McGuire & Bavoil 2013): no sorting, frame-sized targets and
+/// a composite over the scene, each fragment weighted by the light the hair in front of it in
+/// its pixel lets through ([`BlendWeight`]); [`draw_opaque`](HairRenderer::draw_opaque) draws
+/// it opaque instead. A frame records, into the game's encoder:
 ///
 /// ```no_run
 /// # fn frame(device: &wgpu::Device, queue: &wgpu::Queue, gpu: &hikage_runtime::GpuBundle, color: &wgpu::TextureView, depth: &wgpu::TextureView, camera: hikage_runtime::glam::Mat4, eye: hikage_runtime::glam::Vec3) -> Result<(), hikage_runtime::RuntimeError> {
@@ -332,13 +354,12 @@ pub struct HairRenderer {
     light_group: wgpu::BindGroup,
     opacity_group: wgpu::BindGroup,
     receiver_group: wgpu::BindGroup,
-    composite_group: wgpu::BindGroup,
-    accum: wgpu::TextureView,
-    revealage: wgpu::TextureView,
+    targets: FrameTargets,
     pipelines: Pipelines,
     has_depth: bool,
     size: (u32, u32),
     accum_format: wgpu::TextureFormat,
+    blend: BlendWeight,
     /// The levels [`update`](HairRenderer::update) chose: camera, light.
     drawn: [AtomicU32; 2],
     /// The viewport of the last [`update`](Self::update): x, y, width, height (width 0: the
@@ -351,13 +372,28 @@ struct Layouts {
     light: wgpu::BindGroupLayout,
     opacity: wgpu::BindGroupLayout,
     receiver: wgpu::BindGroupLayout,
+    /// The blended pass weighted by the camera's layers: the receivers' entries and the layers.
+    camera: wgpu::BindGroupLayout,
     composite: wgpu::BindGroupLayout,
+}
+
+/// The frame-sized targets of the camera's blend and the groups that read them.
+#[derive(Debug)]
+struct FrameTargets {
+    accum: wgpu::TextureView,
+    revealage: wgpu::TextureView,
+    /// With [`BlendWeight::Layers`]: the camera's 8 cumulative opacity layers (the nearer four,
+    /// the farther four) and the blended pass's group reading them with the opacity maps.
+    layers: Option<([wgpu::Texture; 2], wgpu::BindGroup)>,
+    composite_group: wgpu::BindGroup,
 }
 
 #[derive(Debug)]
 struct Pipelines {
     depth: wgpu::RenderPipeline,
     opacity: wgpu::RenderPipeline,
+    /// With [`BlendWeight::Layers`]: the camera's opacity layers, drawn before the blend.
+    camera_layers: Option<wgpu::RenderPipeline>,
     oit: wgpu::RenderPipeline,
     opaque: wgpu::RenderPipeline,
     composite: wgpu::RenderPipeline,
@@ -434,6 +470,10 @@ impl HairRenderer {
             light: layout("hikage hair light", &[gpu::uniform_entry::<HairUniform>(0)]),
             opacity: layout("hikage hair opacity", &[gpu::uniform_entry::<HairUniform>(0), sampled(1)]),
             receiver: layout("hikage hair receivers", &[gpu::uniform_entry::<HairUniform>(0), sampled(1), sampled(2)]),
+            camera: layout(
+                "hikage hair camera",
+                &[gpu::uniform_entry::<HairUniform>(0), sampled(1), sampled(2), sampled(5), sampled(6)],
+            ),
             composite: layout("hikage hair composite", &[sampled(3), sampled(4)]),
         };
         let (depth_view, layers_view) =
@@ -453,7 +493,14 @@ impl HairRenderer {
         } else {
             wgpu::TextureFormat::Rgba16Float
         };
-        let (accum, revealage, composite_group) = frame_targets(device, &layouts.composite, options.size, accum_format);
+        let targets = frame_targets(
+            device,
+            &layouts,
+            options.size,
+            accum_format,
+            options.blend,
+            (&uniform, &depth_view, &layers_view),
+        );
         let pipelines = gpu::checked(device, strips, || pipelines(device, &wgsl, &layouts, options, accum_format))?;
         Ok(HairRenderer {
             assets: vec![strips.to_string()],
@@ -471,13 +518,12 @@ impl HairRenderer {
             light_group,
             opacity_group,
             receiver_group,
-            composite_group,
-            accum,
-            revealage,
+            targets,
             pipelines,
             has_depth: options.draw.depth_format.is_some(),
             size: options.size,
             accum_format,
+            blend: options.blend,
             drawn: [AtomicU32::new(0), AtomicU32::new(0)],
             viewport: Default::default(),
         })
@@ -738,27 +784,55 @@ impl HairRenderer {
         self.draw_strips(&mut pass, &self.pipelines.opacity, &self.opacity_group, LIGHT);
     }
 
-    /// Records the camera pass of the order-independent blend into `encoder`: the shading set
-    /// accumulated into the renderer's frame targets, depth-tested against `scene_depth` (the
-    /// game's depth attachment, read only; give it exactly when the options had a depth
-    /// format). [`composite`](Self::composite) then blends the result over the scene.
+    /// Records the camera passes of the order-independent blend into `encoder`: the shading set
+    /// accumulated into the renderer's frame targets (after its opacity layers, with
+    /// [`BlendWeight::Layers`]), depth-tested against `scene_depth` (the game's depth
+    /// attachment, read only; give it exactly when the options had a depth format).
+    /// [`composite`](Self::composite) then blends the result over the scene.
     pub fn render_hair(&self, encoder: &mut wgpu::CommandEncoder, scene_depth: Option<&wgpu::TextureView>) {
         debug_assert_eq!(scene_depth.is_some(), self.has_depth, "scene_depth must match HairOptions::depth_format");
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("hikage hair"),
-            color_attachments: &[
-                color_attachment(&self.accum, wgpu::Color::TRANSPARENT),
-                color_attachment(&self.revealage, wgpu::Color::WHITE),
-            ],
-            depth_stencil_attachment: scene_depth.map(|view| wgpu::RenderPassDepthStencilAttachment {
+        let depth = || {
+            scene_depth.map(|view| wgpu::RenderPassDepthStencilAttachment {
                 view,
                 depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store }),
                 stencil_ops: None,
-            }),
+            })
+        };
+        if let (Some(pipeline), Some((textures, _))) = (&self.pipelines.camera_layers, &self.targets.layers) {
+            let [near, far] = textures.each_ref().map(|t| t.create_view(&Default::default()));
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("hikage hair camera layers"),
+                color_attachments: &[
+                    color_attachment(&near, wgpu::Color::TRANSPARENT),
+                    color_attachment(&far, wgpu::Color::TRANSPARENT),
+                ],
+                depth_stencil_attachment: depth(),
+                ..Default::default()
+            });
+            self.keep_to_viewport(&mut pass);
+            self.draw_strips(&mut pass, pipeline, &self.light_group, CAMERA);
+        }
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("hikage hair"),
+            color_attachments: &[
+                color_attachment(&self.targets.accum, wgpu::Color::TRANSPARENT),
+                color_attachment(&self.targets.revealage, wgpu::Color::WHITE),
+            ],
+            depth_stencil_attachment: depth(),
             ..Default::default()
         });
         self.keep_to_viewport(&mut pass);
-        self.draw_strips(&mut pass, &self.pipelines.oit, &self.receiver_group, CAMERA);
+        let group = self.targets.layers.as_ref().map_or(&self.receiver_group, |(_, group)| group);
+        self.draw_strips(&mut pass, &self.pipelines.oit, group, CAMERA);
+    }
+
+    /// The camera's opacity layers of the last [`render_hair`](Self::render_hair) with
+    /// [`BlendWeight::Layers`] (`None` with [`BlendWeight::Depth`]): two `Rgba16Float` frame
+    /// targets, the cumulative opacity of the hair in each pixel up to the far boundaries of
+    /// layers 1–4 and 5–8 (view depth: the nearest point of the hair's box plus its depth
+    /// range × k(k+1)/72 for layer k).
+    pub fn camera_layers(&self) -> Option<[&wgpu::Texture; 2]> {
+        self.targets.layers.as_ref().map(|(textures, _)| textures.each_ref())
     }
 
     /// `frame`'s viewport within the frame targets (the whole frame when it has none).
@@ -787,7 +861,7 @@ impl HairRenderer {
     pub fn composite(&self, pass: &mut wgpu::RenderPass<'_>) {
         self.keep_to_viewport(pass);
         pass.set_pipeline(&self.pipelines.composite);
-        pass.set_bind_group(self.group, &self.composite_group, &[]);
+        pass.set_bind_group(self.group, &self.targets.composite_group, &[]);
         pass.draw(0..3, 0..1);
     }
 
@@ -800,8 +874,16 @@ impl HairRenderer {
 
     /// Makes the frame targets `size` pixels (after the game's window is resized).
     pub fn resize(&mut self, device: &wgpu::Device, size: (u32, u32)) {
-        (self.accum, self.revealage, self.composite_group) =
-            frame_targets(device, &self.layouts.composite, size, self.accum_format);
+        let (depth_view, layers_view) =
+            (self.depth_map.create_view(&Default::default()), self.layers.create_view(&Default::default()));
+        self.targets = frame_targets(
+            device,
+            &self.layouts,
+            size,
+            self.accum_format,
+            self.blend,
+            (&self.uniform, &depth_view, &layers_view),
+        );
         self.size = size;
     }
 
@@ -884,21 +966,41 @@ fn color_attachment(view: &wgpu::TextureView, clear: wgpu::Color) -> Option<wgpu
     })
 }
 
-/// The order-independent blend's targets of `size` and the composite's bind group over them.
+/// The order-independent blend's targets of `size` and the groups over them; `maps` are the
+/// uniform and the opacity maps the blended pass also reads.
 fn frame_targets(
     device: &wgpu::Device,
-    layout: &wgpu::BindGroupLayout,
+    layouts: &Layouts,
     size: (u32, u32),
     accum_format: wgpu::TextureFormat,
-) -> (wgpu::TextureView, wgpu::TextureView, wgpu::BindGroup) {
+    blend: BlendWeight,
+    (uniform, depth_map, layers): (&wgpu::Buffer, &wgpu::TextureView, &wgpu::TextureView),
+) -> FrameTargets {
     let accum = texture(device, size, accum_format, "hikage hair accumulation").create_view(&Default::default());
     let revealage = texture(device, size, REVEALAGE, "hikage hair revealage").create_view(&Default::default());
-    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+    let composite_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("hikage hair composite"),
-        layout,
+        layout: &layouts.composite,
         entries: &[view_entry(3, &accum), view_entry(4, &revealage)],
     });
-    (accum, revealage, group)
+    let layers = (blend == BlendWeight::Layers).then(|| {
+        let textures = ["hikage hair camera layers 1-4", "hikage hair camera layers 5-8"]
+            .map(|label| texture(device, size, LAYERS_FORMAT, label));
+        let [near, far] = textures.each_ref().map(|t| t.create_view(&Default::default()));
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("hikage hair camera"),
+            layout: &layouts.camera,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
+                view_entry(1, depth_map),
+                view_entry(2, layers),
+                view_entry(5, &near),
+                view_entry(6, &far),
+            ],
+        });
+        (textures, group)
+    });
+    FrameTargets { accum, revealage, layers, composite_group }
 }
 
 fn pipelines(
@@ -972,6 +1074,10 @@ fn pipelines(
         };
         gpu::render_pipeline(device, &module, (options.draw.group, layout), desc)
     };
+    let oit_targets = [
+        target(accum_format, Some(wgpu::BlendState { color: add, alpha: add })),
+        target(REVEALAGE, Some(wgpu::BlendState { color: keep_inverse, alpha: keep_inverse })),
+    ];
     Pipelines {
         depth: pipeline(
             &layouts.light,
@@ -987,16 +1093,30 @@ fn pipelines(
             &[target(LAYERS_FORMAT, Some(wgpu::BlendState { color: add, alpha: add }))],
             None,
         ),
-        oit: pipeline(
-            &layouts.receiver,
-            ("hair_vs_camera", "hair_fs_oit"),
-            true,
-            &[
-                target(accum_format, Some(wgpu::BlendState { color: add, alpha: add })),
-                target(REVEALAGE, Some(wgpu::BlendState { color: keep_inverse, alpha: keep_inverse })),
-            ],
-            scene_depth(false),
-        ),
+        camera_layers: (options.blend == BlendWeight::Layers).then(|| {
+            pipeline(
+                &layouts.light,
+                ("hair_vs_camera", "hair_fs_camera_layers"),
+                true,
+                &[
+                    target(LAYERS_FORMAT, Some(wgpu::BlendState { color: add, alpha: add })),
+                    target(LAYERS_FORMAT, Some(wgpu::BlendState { color: add, alpha: add })),
+                ],
+                scene_depth(false),
+            )
+        }),
+        oit: match options.blend {
+            BlendWeight::Layers => pipeline(
+                &layouts.camera,
+                ("hair_vs_camera", "hair_fs_oit_layered"),
+                true,
+                &oit_targets,
+                scene_depth(false),
+            ),
+            BlendWeight::Depth => {
+                pipeline(&layouts.receiver, ("hair_vs_camera", "hair_fs_oit"), true, &oit_targets, scene_depth(false))
+            }
+        },
         opaque: pipeline(
             &layouts.receiver,
             ("hair_vs_camera_opaque", "hair_fs_opaque"),

@@ -19,9 +19,12 @@
 // its depth, interpolated between boundaries; visibility = 1 - min(opacity, 1), at the nearest
 // texel or filtered over the 2x2 texels around the point.
 // Camera: the shading set blended at its own opacity, order-independently (weighted blended
-// OIT: an accumulation and a revealage target, then a composite over the scene; the weight
-// falls with the fragment's depth across the hair's box), or opaque; Kajiya-Kay shading with
-// the highlight where T.E = -T.L.
+// OIT: an accumulation and a revealage target, then a composite over the scene), or opaque;
+// Kajiya-Kay shading with the highlight where T.E = -T.L. A fragment's weight is the light its
+// pixel's hair in front of it lets through: exp(-opacity in front), read from 8 cumulative
+// camera layers of view depth (a pass before the blend; boundaries at the box's nearest
+// distance + its depth range x k(k+1)/72, k = 1..8), or, without that pass, falling with the
+// fragment's depth across the hair's box by the hair's mean optical depth.
 
 struct HairUniform {
     light: mat4x4<f32>,         // world -> light clip (orthographic, wgpu depth 0..1)
@@ -384,6 +387,66 @@ fn hair_oit_weight(z: f32, a: f32) -> f32 {
     return a * max(exp(-hair.oit_falloff * t), 1e-4);
 }
 
+// The camera's opacity layers (the blend weighted by them): the cumulative opacity of the hair
+// in each pixel up to the far boundaries of layers 1-4 and 5-8.
+@group(0) @binding(5) var hair_camera_near: texture_2d<f32>;
+@group(0) @binding(6) var hair_camera_far: texture_2d<f32>;
+
+// Far boundary of camera layer k (1-based, 1..8), view depth: the box's depth range in 36 parts
+// from its nearest point, layer k being k parts deep so near layers are thin.
+fn hair_camera_boundary(k: u32) -> f32 {
+    let range = max(hair.depth_range.y - hair.depth_range.x, 1e-6);
+    return hair.depth_range.x + range * f32(k * (k + 1u) / 2u) / 36.0;
+}
+
+struct CameraLayersOut {
+    @location(0) near: vec4<f32>,
+    @location(1) far: vec4<f32>,
+}
+
+// The camera layers pass: a fragment adds its opacity to every layer whose far boundary lies
+// beyond it (additive blending).
+@fragment
+fn hair_fs_camera_layers(in: CameraOut) -> CameraLayersOut {
+    let alpha = in.alpha * hair_coverage(in);
+    var out = CameraLayersOut(vec4<f32>(0.0), vec4<f32>(0.0));
+    for (var k = 0u; k < 4u; k = k + 1u) {
+        if (in.view_depth < hair_camera_boundary(k + 1u)) {
+            out.near[k] = alpha;
+        }
+        if (in.view_depth < hair_camera_boundary(k + 5u)) {
+            out.far[k] = alpha;
+        }
+    }
+    return out;
+}
+
+// The opacity of the hair in front of view depth z in pixel p: the camera layers interpolated
+// between their boundaries (0 at the box's nearest point).
+fn hair_opacity_in_front(p: vec2<i32>, z: f32) -> f32 {
+    let a = textureLoad(hair_camera_near, p, 0);
+    let b = textureLoad(hair_camera_far, p, 0);
+    var layers = array<f32, 8>(a.x, a.y, a.z, a.w, b.x, b.y, b.z, b.w);
+    var lo = hair.depth_range.x;
+    var before = 0.0;
+    for (var k = 0u; k < 8u; k = k + 1u) {
+        let hi = hair_camera_boundary(k + 1u);
+        if (z < hi) {
+            return mix(before, layers[k], clamp((z - lo) / max(hi - lo, 1e-9), 0.0, 1.0));
+        }
+        lo = hi;
+        before = layers[k];
+    }
+    return layers[7];
+}
+
+// The weight of a fragment of opacity `a` at view depth `z` in pixel p, from the camera layers:
+// the light the hair in front of it lets through, exp(-opacity), bounded in [1e-4, 1] like
+// hair_oit_weight.
+fn hair_layered_weight(p: vec2<i32>, z: f32, a: f32) -> f32 {
+    return a * max(exp(-hair_opacity_in_front(p, z)), 1e-4);
+}
+
 struct OitOut {
     @location(0) accum: vec4<f32>,
     @location(1) revealage: vec4<f32>,
@@ -394,6 +457,14 @@ fn hair_fs_oit(in: CameraOut) -> OitOut {
     let c = hair_shade(in);
     let alpha = in.alpha * hair_coverage(in);
     let w = hair_oit_weight(in.view_depth, alpha);
+    return OitOut(vec4<f32>(c * alpha * w, alpha * w), vec4<f32>(alpha));
+}
+
+@fragment
+fn hair_fs_oit_layered(in: CameraOut) -> OitOut {
+    let c = hair_shade(in);
+    let alpha = in.alpha * hair_coverage(in);
+    let w = hair_layered_weight(vec2<i32>(floor(in.clip.xy)), in.view_depth, alpha);
     return OitOut(vec4<f32>(c * alpha * w, alpha * w), vec4<f32>(alpha));
 }
 
