@@ -415,13 +415,11 @@ pub fn camera_reference(
                     [c.x, c.y, c.z, a]
                 }
                 Composite::OrderIndependent | Composite::DepthWeighted => {
-                    let layers = hair_camera_layers(uniform, f.iter().map(|x| (x.4, x.2)));
+                    let layers = (how == Composite::OrderIndependent)
+                        .then(|| hair_camera_layers(uniform, f.iter().map(|x| (x.4, x.2))));
                     let (mut sum, mut weight, mut revealage) = (Vec3::ZERO, 0.0f32, 1.0f32);
                     for (_, color, alpha, w, view_depth) in f {
-                        let w = match how {
-                            Composite::OrderIndependent => hair_layered_weight(uniform, &layers, view_depth, alpha),
-                            _ => w,
-                        };
+                        let w = layers.as_ref().map_or(w, |l| hair_layered_weight(uniform, l, view_depth, alpha));
                         sum += color * alpha * w;
                         weight += alpha * w;
                         revealage *= 1.0 - alpha;

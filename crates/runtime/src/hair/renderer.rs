@@ -826,15 +826,6 @@ impl HairRenderer {
         self.draw_strips(&mut pass, &self.pipelines.oit, group, CAMERA);
     }
 
-    /// The camera's opacity layers of the last [`render_hair`](Self::render_hair) with
-    /// [`BlendWeight::Layers`] (`None` with [`BlendWeight::Depth`]): two `Rgba16Float` frame
-    /// targets, the cumulative opacity of the hair in each pixel up to the far boundaries of
-    /// layers 1–4 and 5–8 (view depth: the nearest point of the hair's box plus its depth
-    /// range × k(k+1)/72 for layer k).
-    pub fn camera_layers(&self) -> Option<[&wgpu::Texture; 2]> {
-        self.targets.layers.as_ref().map(|(textures, _)| textures.each_ref())
-    }
-
     /// `frame`'s viewport within the frame targets (the whole frame when it has none).
     fn viewport_of(&self, frame: &HairFrame) -> [u32; 4] {
         let (w, h) = self.size;
