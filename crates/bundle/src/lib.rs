@@ -60,7 +60,7 @@ pub use manifest::{
     ReliefSettings, SCALP_STREAMS, STRANDS_RECORD_BYTES, STRANDS_STREAMS, ScalpSettings, Settings, StrandsSettings,
     Stream, TilePlacement,
 };
-pub use mesh::{Accessor, ComponentType, MeshData, MeshDesc};
+pub use mesh::{Accessor, ComponentType, MAX_VERTEX_STRIDE, MeshData, MeshDesc, VertexFetch};
 pub use names::{check_asset_id, is_payload_file_of, is_valid_asset_id, payload_file_name};
 pub use strands::{StrandPoint, read_strand_points, strands_desc};
 pub use texture::{Supercompression, TextureData, TextureDesc, TextureDimension, TextureFormat};

@@ -83,7 +83,47 @@ pub struct Accessor {
     pub count: u32,
 }
 
+/// Longest vertex stride a GPU reads (WebGPU's and wgpu's default `max_vertex_buffer_array_stride`).
+pub const MAX_VERTEX_STRIDE: u32 = 2048;
+
+/// The shape in which a GPU fetches a vertex stream: `components` of `component`. A stream of
+/// three 8- or 16-bit components is fetched as four, the fourth its padding (written zero):
+/// WebGPU, Vulkan, Metal and Bevy have no three-component 8- or 16-bit vertex formats, and
+/// glTF pads such elements to 4 bytes the same way.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct VertexFetch {
+    /// Scalar type of each component.
+    pub component: ComponentType,
+    /// Components fetched (1, 2, 3 or 4; 3 only for 32-bit types).
+    pub components: u8,
+}
+
 impl Accessor {
+    /// How a GPU fetches this stream as a vertex attribute ([`VertexFetch`]), or why it cannot:
+    /// the offset and stride must be multiples of 4 (WebGPU's vertex alignment), the stride at
+    /// most [`MAX_VERTEX_STRIDE`] and wide enough for the fetched element.
+    pub fn vertex_fetch(&self) -> Result<VertexFetch, String> {
+        let components = match (self.component.bytes(), self.components) {
+            (1 | 2, 3) => 4,
+            (_, n) => n,
+        };
+        let fetched = self.component.bytes() * components as usize;
+        if !self.offset.is_multiple_of(4) || !self.stride.is_multiple_of(4) {
+            return Err(format!(
+                "stream `{}`: offset {} and stride {} must be multiples of 4 to be read as a vertex attribute",
+                self.name, self.offset, self.stride
+            ));
+        }
+        if self.stride > MAX_VERTEX_STRIDE || (self.stride as usize) < fetched {
+            return Err(format!(
+                "stream `{}`: {:?} × {} is fetched as {components} components ({fetched} bytes), expected a stride from \
+                 {fetched} to {MAX_VERTEX_STRIDE}, found {}",
+                self.name, self.component, self.components, self.stride
+            ));
+        }
+        Ok(VertexFetch { component: self.component, components })
+    }
+
     /// Bytes of one element.
     pub fn element_bytes(&self) -> usize {
         self.component.bytes() * self.components as usize
@@ -425,5 +465,40 @@ mod tests {
         assert_eq!(ComponentType::I8.normalized(&[0x80], 0), -1.0);
         assert_eq!(m.read_normalized("position").unwrap(), vec![0.0, 1.0]);
         assert!(m.push_normalized("bad", ComponentType::F32, 1, &[0.0, 0.0]).is_err());
+    }
+
+    /// Every stream the writer makes is one a GPU fetches: 8- and 16-bit triples as four
+    /// components over their zero padding, 32-bit triples as they are; streams off a 4-byte
+    /// boundary, or too narrow for what is fetched, are not.
+    #[test]
+    fn written_streams_are_vertex_formats_and_odd_ones_are_named() {
+        let values = [0.5f32; 6];
+        let mut m = MeshData::new(2);
+        m.push_f32("p", 3, &values).unwrap();
+        m.push_normalized("n", ComponentType::I8, 3, &values).unwrap();
+        m.push_normalized("c", ComponentType::U16, 3, &values).unwrap();
+        m.push_normalized("u", ComponentType::U8, 1, &values[..2]).unwrap();
+        let fetched: Vec<(ComponentType, u8)> =
+            m.desc.attributes.iter().map(|a| a.vertex_fetch().map(|f| (f.component, f.components)).unwrap()).collect();
+        assert_eq!(
+            fetched,
+            [(ComponentType::F32, 3), (ComponentType::I8, 4), (ComponentType::U16, 4), (ComponentType::U8, 1)]
+        );
+        // The padding a GPU reads as the fourth component is zero.
+        let n = m.desc.attribute("n").unwrap().clone();
+        assert!(m.bytes[n.offset as usize..].chunks(4).take(2).all(|e| e[3] == 0));
+        crate::validate::check_mesh(&m.desc, &m.bytes).unwrap();
+
+        let odd = Accessor { offset: n.offset + 2, ..n.clone() };
+        assert!(odd.vertex_fetch().unwrap_err().contains("multiples of 4"), "{:?}", odd.vertex_fetch());
+        let narrow = Accessor { stride: 4, component: ComponentType::I16, ..n.clone() };
+        let e = narrow.vertex_fetch().unwrap_err();
+        assert!(e.contains("fetched as 4 components (8 bytes)") && e.contains("found 4"), "{e}");
+        // A triple whose last element's padding would be read past the buffer.
+        let mut cut = m.clone();
+        cut.desc.attributes.retain(|a| a.name == "n");
+        cut.bytes.truncate((n.offset + 4 + 3) as usize);
+        let e = crate::validate::check_mesh(&cut.desc, &cut.bytes).unwrap_err();
+        assert!(e.contains("past the"), "{e}");
     }
 }

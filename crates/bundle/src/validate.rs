@@ -47,7 +47,8 @@ impl Report {
 /// line and column, unknown major version). Otherwise checks, per asset: ids and file names
 /// (unique, inside the directory), the payload exists and is a regular file, its size and
 /// BLAKE3, the KTX2 header against the manifest, that every float texel is finite, mesh
-/// accessors in bounds, indices below the vertex count, float attributes finite.
+/// accessors in bounds, every vertex stream readable as a GPU vertex attribute
+/// ([`crate::Accessor::vertex_fetch`]), indices below the vertex count, float attributes finite.
 pub fn validate(dir: &Path) -> Result<Report, BundleError> {
     validate_with_limits(dir, Limits::default())
 }
@@ -163,7 +164,8 @@ pub(crate) fn check_texture(tex: &TextureData) -> Result<(), String> {
     }
 }
 
-/// An index at or past the vertex count, or a float attribute that is not finite, as a message
+/// An index at or past the vertex count, a vertex stream no GPU can fetch
+/// ([`crate::Accessor::vertex_fetch`]), or a float attribute that is not finite, as a message
 /// (the accessors already checked against `bytes`, as [`crate::decode_mesh`] does).
 pub fn check_mesh(desc: &MeshDesc, bytes: &[u8]) -> Result<(), String> {
     if let Some(ix) = &desc.indices {
@@ -172,6 +174,18 @@ pub fn check_mesh(desc: &MeshDesc, bytes: &[u8]) -> Result<(), String> {
             if v >= desc.vertex_count {
                 return Err(format!("index {i} is {v}, expected below the vertex count {}", desc.vertex_count));
             }
+        }
+    }
+    for a in &desc.attributes {
+        let fetch = a.vertex_fetch()?;
+        let fetched = (fetch.component.bytes() * fetch.components as usize - a.element_bytes()) as u64;
+        if a.count > 0 && a.end().is_none_or(|end| end + fetched > bytes.len() as u64) {
+            return Err(format!(
+                "stream `{}`: its last element is fetched as {} components, past the {}-byte buffer",
+                a.name,
+                fetch.components,
+                bytes.len()
+            ));
         }
     }
     for a in desc.attributes.iter().filter(|a| a.component == ComponentType::F32) {

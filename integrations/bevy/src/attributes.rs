@@ -1,5 +1,6 @@
 //! The Bevy vertex attributes of hikage's mesh streams: the standard ones where a stream is one
-//! (`position`, `normal`, `uv`, a 4-component `tangent` or `color`), a custom
+//! (`position`, `normal`, `uv`, a 4-component `tangent` or `color`, loaded as floats whatever
+//! their stored type), a custom
 //! [`MeshVertexAttribute`] named `hikage_<stream>` otherwise, in the format the stream is
 //! stored in (a strands record's `tangent` and `shape` are `Unorm16x2`, its `color` `Unorm8x4`,
 //! its `strand` `Uint16x2`, its `strand_id` `Uint32`).

@@ -9,7 +9,7 @@ use bevy_asset::{AssetLoader, LoadContext, RenderAssetUsages};
 use bevy_image::{
     CompressedImageFormats, Image, ImageAddressMode, ImageFilterMode, ImageSampler, ImageSamplerDescriptor, ImageType,
 };
-use bevy_mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues};
+use bevy_mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues, VertexFormat};
 use bevy_reflect::TypePath;
 use hikage_bundle::{
     Asset as ManifestAsset, AssetKind, ComponentType, EdgeMode, Limits, Manifest, MeshData, MeshDesc, Payload, Settings,
@@ -75,44 +75,17 @@ impl AssetLoader for BundleLoader {
         context: &mut LoadContext<'_>,
     ) -> Result<HikageBundle, BundleLoadError> {
         let path = context.path().to_string();
-        let manifest_error =
-            |message: String| BundleLoadError::Manifest { path: path.clone(), message: format!("{path}: {message}") };
         let limits = Limits::default();
         let mut text = Vec::new();
-        reader.read_to_end(&mut text).await.map_err(|e| manifest_error(e.to_string()))?;
-        if text.len() as u64 > limits.max_manifest_bytes {
-            return Err(manifest_error(format!(
-                "{} bytes, above the limit of {}",
-                text.len(),
-                limits.max_manifest_bytes
-            )));
-        }
-        let text = String::from_utf8(text).map_err(|e| manifest_error(format!("expected UTF-8 text: {e}")))?;
-        // The parser's error names the path (and line and column) itself.
-        let parse_error =
-            |e: hikage_bundle::BundleError| BundleLoadError::Manifest { path: path.clone(), message: e.to_string() };
-        // A map baked in tiles is listed in a tile table beside the manifest: read each first.
+        reader.read_to_end(&mut text).await.map_err(|e| manifest_error(&path, e.to_string()))?;
+        let (text, names) = manifest_text(text, &path)?;
         let mut tables = std::collections::BTreeMap::new();
-        for set in Manifest::tile_sets(&text, Path::new(&path)).map_err(parse_error)? {
-            if set.byte_length > limits.max_manifest_bytes || !hikage_bundle::is_valid_asset_id(&set.table) {
-                return Err(manifest_error(format!(
-                    "tile table {:?} of {} bytes is not one a reader takes",
-                    set.table, set.byte_length
-                )));
-            }
-            let table_path = context.path().path().with_file_name(&set.table);
-            let bytes = context.read_asset_bytes(table_path).await.map_err(|e| manifest_error(e.to_string()))?;
-            tables.insert(set.table, bytes);
+        for name in names {
+            let table_path = context.path().path().with_file_name(&name);
+            let bytes = context.read_asset_bytes(table_path).await.map_err(|e| manifest_error(&path, e.to_string()))?;
+            tables.insert(name, bytes);
         }
-        let manifest = Manifest::parse_with_tables(&text, Path::new(&path), &limits, &mut |set| {
-            Ok(tables.remove(&set.table).unwrap_or_default())
-        })
-        .map_err(parse_error)?;
-        if let Some((asset, message)) =
-            hikage_bundle::validate::manifest_problems(&manifest, &limits).into_iter().next()
-        {
-            return Err(BundleLoadError::Asset { path, asset, message });
-        }
+        let manifest = parse_manifest(&text, &path, tables)?;
         let mut bundle = HikageBundle {
             manifest: manifest.clone(),
             images: Vec::new(),
@@ -168,6 +141,61 @@ impl AssetLoader for BundleLoader {
     fn extensions(&self) -> &[&str] {
         &["ron"]
     }
+}
+
+/// The manifest `text` of the bundle at asset path `path` as text, and the tile tables beside it
+/// to read (their file names), checked against the limits every reader keeps. With
+/// [`parse_manifest`], the one way the loader and a [`crate::StreamedTerrain`] (which streams
+/// before the bundle has loaded) read a manifest.
+pub(crate) fn manifest_text(text: Vec<u8>, path: &str) -> Result<(String, Vec<String>), BundleLoadError> {
+    let limits = Limits::default();
+    if text.len() as u64 > limits.max_manifest_bytes {
+        return Err(manifest_error(
+            path,
+            format!("{} bytes, above the limit of {}", text.len(), limits.max_manifest_bytes),
+        ));
+    }
+    let text = String::from_utf8(text).map_err(|e| manifest_error(path, format!("expected UTF-8 text: {e}")))?;
+    // A map baked in tiles is listed in a tile table beside the manifest: each is read first.
+    let mut tables = Vec::new();
+    for set in Manifest::tile_sets(&text, Path::new(path)).map_err(|e| parse_error(path, e))? {
+        if set.byte_length > limits.max_manifest_bytes || !hikage_bundle::is_valid_asset_id(&set.table) {
+            return Err(manifest_error(
+                path,
+                format!("tile table {:?} of {} bytes is not one a reader takes", set.table, set.byte_length),
+            ));
+        }
+        tables.push(set.table);
+    }
+    Ok((text, tables))
+}
+
+/// The manifest `text` of the bundle at asset path `path` with its tile tables' bytes (by file
+/// name, [`manifest_text`]), checked as every reader checks it.
+pub(crate) fn parse_manifest(
+    text: &str,
+    path: &str,
+    mut tables: std::collections::BTreeMap<String, Vec<u8>>,
+) -> Result<Manifest, BundleLoadError> {
+    let limits = Limits::default();
+    let manifest = Manifest::parse_with_tables(text, Path::new(path), &limits, &mut |set| {
+        Ok(tables.remove(&set.table).unwrap_or_default())
+    })
+    .map_err(|e| parse_error(path, e))?;
+    if let Some((asset, message)) = hikage_bundle::validate::manifest_problems(&manifest, &limits).into_iter().next() {
+        return Err(BundleLoadError::Asset { path: path.to_string(), asset, message });
+    }
+    Ok(manifest)
+}
+
+/// A manifest that cannot be used, `message` after its path.
+fn manifest_error(path: &str, message: String) -> BundleLoadError {
+    BundleLoadError::Manifest { path: path.to_string(), message: format!("{path}: {message}") }
+}
+
+/// A parser's error (it names the path, and the line and column, itself).
+fn parse_error(path: &str, e: hikage_bundle::BundleError) -> BundleLoadError {
+    BundleLoadError::Manifest { path: path.to_string(), message: e.to_string() }
 }
 
 /// The image of texture asset `asset` from its checked payload `bytes`: BC4/BC5 blocks kept on a
@@ -262,13 +290,12 @@ fn mesh(kind: AssetKind, data: &MeshData) -> Result<Mesh, String> {
     for a in &desc.attributes {
         let attribute = crate::attributes::for_stream(&a.name, a.components, strands)
             .ok_or_else(|| format!("stream `{}` has no Bevy attribute", a.name))?;
-        let values = values(data, a).ok_or_else(|| {
-            format!("stream `{}`: {:?} × {} is not a vertex format", a.name, a.component, a.components)
+        let values = values(data, a, attribute.format).ok_or_else(|| {
+            format!(
+                "stream `{}`: {:?} × {} cannot load as its attribute's {:?}",
+                a.name, a.component, a.components, attribute.format
+            )
         })?;
-        let format = bevy_mesh::VertexFormat::from(&values);
-        if format != attribute.format {
-            return Err(format!("stream `{}` is {format:?}, expected {:?}", a.name, attribute.format));
-        }
         mesh.try_insert_attribute(attribute, values).map_err(|e| e.to_string())?;
     }
     if let Some(indices) = data.read_indices() {
@@ -277,35 +304,38 @@ fn mesh(kind: AssetKind, data: &MeshData) -> Result<Mesh, String> {
     Ok(mesh)
 }
 
-/// The values of stream `a` in the vertex format its component type and count make (integer
-/// streams as unorm, but a strand record's `strand` and `strand_id` as uint).
-fn values(data: &MeshData, a: &hikage_bundle::Accessor) -> Option<VertexAttributeValues> {
-    let f32s = |e: &[u8], k: usize| f32::from_le_bytes([e[4 * k], e[4 * k + 1], e[4 * k + 2], e[4 * k + 3]]);
+/// The values of stream `a` in the vertex format `format` of the attribute it loads as: floats
+/// for Bevy's standard attributes and the float custom ones (8- and 16-bit streams dequantized
+/// as glTF's normalized accessors are, so quantized normals, tangents, UVs and colours load),
+/// and the stored bytes for a strands record's packed streams; `None` when the stream cannot
+/// give that format.
+fn values(data: &MeshData, a: &hikage_bundle::Accessor, format: VertexFormat) -> Option<VertexAttributeValues> {
     let u16s = |e: &[u8], k: usize| u16::from_le_bytes([e[2 * k], e[2 * k + 1]]);
     let elements = data.elements(a);
-    Some(match (a.component, a.components, a.name.as_str()) {
-        (ComponentType::F32, 1, _) => VertexAttributeValues::Float32(elements.map(|e| f32s(e, 0)).collect()),
-        (ComponentType::F32, 2, _) => {
-            VertexAttributeValues::Float32x2(elements.map(|e| [0, 1].map(|k| f32s(e, k))).collect())
-        }
-        (ComponentType::F32, 3, _) => {
-            VertexAttributeValues::Float32x3(elements.map(|e| [0, 1, 2].map(|k| f32s(e, k))).collect())
-        }
-        (ComponentType::F32, 4, _) => {
-            VertexAttributeValues::Float32x4(elements.map(|e| [0, 1, 2, 3].map(|k| f32s(e, k))).collect())
-        }
-        (ComponentType::U16, 2, "strand") => {
+    Some(match (format, a.component, a.components) {
+        (VertexFormat::Float32, ..) => VertexAttributeValues::Float32(floats::<1>(data, a)?.concat()),
+        (VertexFormat::Float32x2, ..) => VertexAttributeValues::Float32x2(floats(data, a)?),
+        (VertexFormat::Float32x3, ..) => VertexAttributeValues::Float32x3(floats(data, a)?),
+        (VertexFormat::Float32x4, ..) => VertexAttributeValues::Float32x4(floats(data, a)?),
+        (VertexFormat::Uint16x2, ComponentType::U16, 2) => {
             VertexAttributeValues::Uint16x2(elements.map(|e| [0, 1].map(|k| u16s(e, k))).collect())
         }
-        (ComponentType::U16, 2, _) => {
+        (VertexFormat::Unorm16x2, ComponentType::U16, 2) => {
             VertexAttributeValues::Unorm16x2(elements.map(|e| [0, 1].map(|k| u16s(e, k))).collect())
         }
-        (ComponentType::U8, 4, _) => {
+        (VertexFormat::Unorm8x4, ComponentType::U8, 4) => {
             VertexAttributeValues::Unorm8x4(elements.map(|e| [e[0], e[1], e[2], e[3]]).collect())
         }
-        (ComponentType::U32, 1, _) => {
+        (VertexFormat::Uint32, ComponentType::U32, 1) => {
             VertexAttributeValues::Uint32(elements.map(|e| u32::from_le_bytes([e[0], e[1], e[2], e[3]])).collect())
         }
         _ => return None,
     })
+}
+
+/// Stream `a`'s elements as `N` floats each (8- and 16-bit components normalized), when it has
+/// `N` components of a type that is not an integer stream's `U32`.
+fn floats<const N: usize>(data: &MeshData, a: &hikage_bundle::Accessor) -> Option<Vec<[f32; N]>> {
+    (a.components as usize == N && a.component != ComponentType::U32)
+        .then(|| data.elements(a).map(|e| std::array::from_fn(|k| a.component.normalized(e, k))).collect())
 }

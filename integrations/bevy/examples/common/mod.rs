@@ -38,6 +38,21 @@ pub fn bake(name: &str, jobs: &str) -> PathBuf {
     dir
 }
 
+/// Bakes the repository's own `pipeline.ron` (the README's default bundle: every sample, its
+/// budget and compression as they are) into a fresh directory `name` under the target
+/// directory; returns that directory (the bundle is its `bundle/`).
+pub fn bake_default(name: &str) -> PathBuf {
+    let dir = option_env!("CARGO_TARGET_TMPDIR").map_or_else(std::env::temp_dir, PathBuf::from).join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let root = repo_root();
+    let pipeline = std::fs::read_to_string(root.join("pipeline.ron")).unwrap();
+    let pipeline = pipeline.replace("\"data/", &format!("\"{}/", root.join("data").display()));
+    std::fs::write(dir.join("pipeline.ron"), pipeline).unwrap();
+    hikage_bake::build::BuildScript::new(dir.join("pipeline.ron")).into_pipeline_output().run().unwrap();
+    dir
+}
+
 /// True when a Vulkan/GL/Metal adapter exists; panics instead of skipping under
 /// `HIKAGE_REQUIRE_GPU=1`.
 pub fn gpu_or_skip(test: &str) -> bool {
