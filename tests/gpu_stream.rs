@@ -170,42 +170,29 @@ fn level_0_shades_as_the_whole_map(
 fn a_flight_keeps_its_budgets_and_always_has_terrain_underneath() {
     let dir = bundle();
     let Some(g) = gpu("a_flight_keeps_its_budgets_and_always_has_terrain_underneath") else { return };
-    // A level-0 tile is 65² heights (f32), 65²×16 horizons (rg16f) and 65² occlusion (r8):
-    // about 0.29 MiB. Room for about 24 of them, uploads of about 2 a frame.
-    let budget = StreamOptions { resident_bytes: 8 << 20, upload_bytes: 640 << 10, ..StreamOptions::default() };
-    let mut stream = TerrainStream::open(&g.device, &g.queue, &dir, "dem", &options(), budget).unwrap();
-    let side = N as f32 * TEXEL;
-    let (mut finest, mut uploaded, mut evicted_some) = (u32::MAX, 0u64, false);
-    let frames = 240;
-    let mut resident_before = 0;
-    for f in 0..frames {
-        // Low over the map, corner to corner, looking ahead.
-        let t = f as f32 / (frames - 1) as f32;
-        let eye = Vec3::new(side * (0.05 + 0.9 * t), 900.0, side * (0.1 + 0.8 * t));
-        let view_proj = directx::perspective(1.0, 1.0, 10.0, 40_000.0)
-            * look_at_mat4(eye, eye + Vec3::new(1.0, -0.3, 1.0), Vec3::Y);
-        let frame = TerrainFrame { view_proj, sun: low_sun(), ..TerrainFrame::default() };
-        let stats = stream.update(&g.device, &g.queue, &frame, eye).unwrap();
-        assert!(stats.resident_bytes <= budget.resident_bytes, "frame {f}: {stats:?}");
-        assert!(stats.uploaded_bytes <= budget.upload_bytes, "frame {f}: {stats:?}");
-        // Terrain under the camera: a drawn tile's rectangle holds its position.
-        let under =
-            stream.drawn().any(|(_, [lo, hi])| (lo.0..=hi.0).contains(&eye.x) && (lo.1..=hi.1).contains(&eye.z));
-        assert!(under, "frame {f}: no tile under the camera at {eye}");
-        finest = finest.min(stats.finest_drawn);
-        uploaded += stats.uploaded_bytes;
-        evicted_some |= stats.resident_bytes < resident_before + stats.uploaded_bytes;
-        resident_before = stats.resident_bytes;
-        if f % 60 == 59 {
-            let shot = g.render((128, 128), wgpu::Color::BLACK, |pass| stream.draw(pass));
-            let covered = shot.visibility.iter().filter(|v| v[1] > 0.5).count();
-            assert!(covered > 128 * 128 / 4, "frame {f}: terrain covers {covered} pixels");
+    // A level-0 tile is 65² heights (f32, with an apron), 65²×16 horizons (rg16f) and 65²
+    // occlusion: about 0.29 MiB. The flights over 8 MiB tiles at 64, 160 and 256 MiB
+    // held 8, 20 and 32 tiles: the same here, in tiles of this map (5 levels: level 0 under the
+    // camera needs the coarsest tile and four at each finer level, 17).
+    let index = hikage_runtime::hikage_bundle::tiles::TileIndex::open(&dir).unwrap();
+    let parts = ["dem.height", "dem.horizon", "dem.ao"];
+    let entries: Vec<_> = parts.iter().filter_map(|p| index.tile(p, 0, (0, 0))).collect();
+    let tile = hikage_runtime::horizon::tile_device_bytes(&entries);
+    for (tiles, finest_level) in [(8, 3), (20, 0), (32, 0)] {
+        let budget = StreamOptions { resident_bytes: tiles * tile, upload_bytes: 2 * tile, ..StreamOptions::default() };
+        let mut stream = TerrainStream::open(&g.device, &g.queue, &dir, "dem", &options(), budget).unwrap();
+        // The smallest budget cannot hold level 0 under the camera, and says what would.
+        match stream.budget_warning() {
+            Some(short) => {
+                assert_eq!((tiles, short.reachable_level), (8, 3), "{short}");
+                assert!((16 * tile..=17 * tile).contains(&short.needed), "{short}");
+                assert!(short.to_string().contains("level 3"), "{short}");
+            }
+            None => assert_ne!(tiles, 8),
         }
-        std::thread::sleep(std::time::Duration::from_millis(4));
+        fly(&g, &mut stream, budget, tiles, finest_level);
     }
-    eprintln!("flight: finest level drawn {finest}, {:.1} MiB uploaded", uploaded as f64 / (1 << 20) as f64);
-    assert_eq!(finest, 0, "the flight reaches level 0 under the camera");
-    assert!(evicted_some && uploaded > budget.resident_bytes, "the flight streams more than it holds");
+    let budget = StreamOptions { resident_bytes: 8 << 20, upload_bytes: 640 << 10, ..StreamOptions::default() };
 
     // Budgets too small for the coarsest level, or for one tile, are refused by name.
     for (small, what) in [
@@ -217,4 +204,64 @@ fn a_flight_keeps_its_budgets_and_always_has_terrain_underneath() {
     }
     let err = TerrainStream::open(&g.device, &g.queue, &dir, "nothing", &options(), budget).unwrap_err().to_string();
     assert!(err.contains("dem") && err.contains("nothing"), "{err}");
+}
+
+/// Low over the map, corner to corner, looking ahead: every frame keeps its budgets and has a
+/// drawn tile under the camera whose level never falls back more than one between frames (the
+/// camera moves about a tenth of a level-0 tile a frame), and the flight reaches
+/// `finest_level` under the camera and streams more than it holds.
+fn fly(
+    g: &hikage_scenes::headless::Headless,
+    stream: &mut TerrainStream,
+    budget: StreamOptions,
+    tiles: u64,
+    finest_level: u32,
+) {
+    let side = N as f32 * TEXEL;
+    let (mut finest, mut uploaded, mut evicted_some) = (u32::MAX, 0u64, false);
+    let frames = 240;
+    let mut resident_before = 0;
+    let mut under_before = None;
+    for f in 0..frames {
+        let t = f as f32 / (frames - 1) as f32;
+        let eye = Vec3::new(side * (0.05 + 0.9 * t), 900.0, side * (0.1 + 0.8 * t));
+        let view_proj = directx::perspective(1.0, 1.0, 10.0, 40_000.0)
+            * look_at_mat4(eye, eye + Vec3::new(1.0, -0.3, 1.0), Vec3::Y);
+        let frame = TerrainFrame { view_proj, sun: low_sun(), ..TerrainFrame::default() };
+        let stats = stream.update(&g.device, &g.queue, &frame, eye).unwrap();
+        assert!(stats.resident_bytes <= budget.resident_bytes, "{tiles} tiles, frame {f}: {stats:?}");
+        assert!(stats.uploaded_bytes <= budget.upload_bytes, "{tiles} tiles, frame {f}: {stats:?}");
+        // Terrain under the camera: a drawn tile's rectangle holds its position.
+        let under = stream
+            .drawn()
+            .filter(|(_, [lo, hi])| (lo.0..=hi.0).contains(&eye.x) && (lo.1..=hi.1).contains(&eye.z))
+            .map(|(key, _)| key.0)
+            .min();
+        let Some(under) = under else { panic!("{tiles} tiles, frame {f}: no tile under the camera at {eye}") };
+        if let Some(before) = under_before {
+            assert!(under <= before + 1, "{tiles} tiles, frame {f}: level {before} under the camera, then {under}");
+        }
+        under_before = Some(under);
+        finest = finest.min(under);
+        uploaded += stats.uploaded_bytes;
+        evicted_some |= stats.resident_bytes < resident_before + stats.uploaded_bytes;
+        resident_before = stats.resident_bytes;
+        if f % 60 == 59 {
+            let shot = g.render((128, 128), wgpu::Color::BLACK, |pass| stream.draw(pass));
+            let covered = shot.visibility.iter().filter(|v| v[1] > 0.5).count();
+            assert!(covered > 128 * 128 / 4, "{tiles} tiles, frame {f}: terrain covers {covered} pixels");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(4));
+    }
+    eprintln!(
+        "flight at {tiles} tiles: finest level under the camera {finest}, {:.1} MiB uploaded",
+        uploaded as f64 / (1 << 20) as f64
+    );
+    assert_eq!(finest, finest_level, "{tiles} tiles: the finest level reached under the camera");
+    if finest_level == 0 {
+        assert!(
+            evicted_some && uploaded > budget.resident_bytes,
+            "{tiles} tiles: the flight streams more than it holds"
+        );
+    }
 }

@@ -44,11 +44,13 @@ pub(crate) enum Check {
     Sun,
     /// A streamed terrain's tiles (one that failed to read or is missing).
     Tiles,
+    /// A streamed terrain's resident budget, too small for level 0 under the camera.
+    Budget,
 }
 
 /// Every check's finding on one entity (required by each hikage component).
 #[derive(Component, Default, Debug)]
-pub(crate) struct Problems([Option<String>; 5]);
+pub(crate) struct Problems([Option<String>; 6]);
 
 impl Problems {
     /// Sets `check`'s finding, marking the component changed only when it differs.

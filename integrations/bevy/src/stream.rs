@@ -6,6 +6,7 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use bevy_asset::io::{AssetSourceId, Reader};
 use bevy_asset::{AssetEvent, AssetId, AssetServer, Assets, Handle, RenderAssetUsages};
@@ -19,10 +20,10 @@ use bevy_mesh::{Mesh, Mesh3d};
 use bevy_pbr::{ExtendedMaterial, MeshMaterial3d, StandardMaterial};
 use bevy_tasks::{IoTaskPool, Task};
 use bevy_transform::components::{GlobalTransform, Transform};
-use hikage_bundle::{Asset as Entry, Limits, TextureData};
+use hikage_bundle::{Asset as Entry, Limits, Manifest, TextureData};
 use hikage_runtime::horizon::{
-    HorizonEncoding, MAX_TILE_SIDE, StreamOptions, StreamStats, TileKey, TileLayout, TilePlan, apron_neighbours,
-    heights_with_apron,
+    BudgetShortfall, HorizonEncoding, MAX_TILE_SIDE, StreamOptions, StreamStats, TileKey, TileLayout, TilePlan,
+    apron_neighbours, heights_with_apron,
 };
 
 use crate::diagnostics::{Check, NamesBundle, Problems, SunShadowed};
@@ -147,6 +148,10 @@ pub(crate) struct Streaming {
     dir: PathBuf,
     /// What a tile of each level holds (its tile `(0, 0)`, the largest).
     level_bytes: Vec<u64>,
+    /// The manifest the tiles are read by.
+    manifest: Arc<Manifest>,
+    /// The budget's shortfall for level 0 under the camera, said as a `HikageError`.
+    shortfall: Option<BudgetShortfall>,
     resident: HashMap<TileKey, Resident>,
     pending: HashMap<TileKey, Task<Result<Loaded, String>>>,
     ready: Vec<(TileKey, Loaded)>,
@@ -210,6 +215,7 @@ pub(crate) fn stream_terrain(
     mut assets: TileAssets,
     cameras: Query<(&Camera, &GlobalTransform), With<Camera3d>>,
     mut terrains: Query<TerrainState>,
+    mut early: Local<EarlyManifests>,
 ) {
     let reloaded: Vec<_> =
         events.read().filter_map(|e| if let AssetEvent::Modified { id } = e { Some(*id) } else { None }).collect();
@@ -219,7 +225,10 @@ pub(crate) fn stream_terrain(
             .as_ref()
             .is_none_or(|s| terrain.is_changed() || reloaded.contains(&s.bundle) || s.bundle != terrain.bundle.id());
         if stale {
-            let Some(bundle) = bundles.get(&terrain.bundle) else { continue };
+            // The loaded bundle's manifest; before it has loaded (its other assets read and
+            // checked), the manifest read on its own, so tiles stream from the first frames.
+            let loaded = bundles.get(&terrain.bundle).map(|b| Arc::new(b.manifest.clone()));
+            let Some(manifest) = loaded.or_else(|| early.manifest(&server, &terrain.bundle, entity)) else { continue };
             if problems.get(Check::Build).is_some() && !terrain.is_changed() && !reloaded.contains(&terrain.bundle.id())
             {
                 continue;
@@ -230,9 +239,10 @@ pub(crate) fn stream_terrain(
                 }
                 old.resident.clear();
             }
-            match start(&server, &terrain, bundle) {
+            match start(&server, &terrain, manifest) {
                 Ok(s) => {
                     Problems::set(&mut problems, Check::Build, None);
+                    Problems::set(&mut problems, Check::Budget, s.shortfall.as_ref().map(ToString::to_string));
                     match streaming.as_mut() {
                         Some(old) => **old = s,
                         None => {
@@ -250,7 +260,7 @@ pub(crate) fn stream_terrain(
                 }
             }
         }
-        let (Some(s), Some(bundle), Some(eye)) = (streaming.as_deref_mut(), bundles.get(&terrain.bundle), eye) else {
+        let (Some(s), Some(eye)) = (streaming.as_deref_mut(), eye) else {
             continue;
         };
         let cam = placed.affine().inverse().transform_point3(eye);
@@ -276,9 +286,8 @@ pub(crate) fn stream_terrain(
         s.ready.retain(|(key, _)| plan.rank(*key).is_some() && !s.resident.contains_key(key));
         s.ready.sort_by_key(|(key, _)| std::cmp::Reverse(plan.rank(*key)));
         // Requests, the coarsest level first, then in the plan's order, of what the budget holds.
-        let roots: Vec<TileKey> = s.layout.roots().collect();
         let affordable = plan.affordable(options.resident_bytes, |k| s.level_bytes[k.0 as usize]);
-        for &key in roots.iter().chain(affordable) {
+        for &key in affordable {
             if s.pending.len() >= MAX_PENDING {
                 break;
             }
@@ -286,7 +295,7 @@ pub(crate) fn stream_terrain(
             if s.resident.contains_key(&key) || queued {
                 continue;
             }
-            match request(bundle, &s.layout, key) {
+            match request(&s.manifest, &s.layout, key) {
                 Ok(r) => {
                     let task = read_tile(&server, s, r, loader.0.device_features(), options);
                     s.pending.insert(key, task);
@@ -298,7 +307,7 @@ pub(crate) fn stream_terrain(
         let mut uploaded = 0u64;
         while let Some((key, loaded)) = s.ready.pop() {
             if uploaded + loaded.bytes > options.upload_bytes
-                || !make_room(&mut commands, s, loaded.bytes, key, &plan, options.resident_bytes)
+                || !make_room(&mut commands, s, loaded.bytes, affordable.len(), &plan, options.resident_bytes)
             {
                 s.ready.push((key, loaded));
                 break;
@@ -308,7 +317,10 @@ pub(crate) fn stream_terrain(
             let tile = add_tile(&mut commands, &mut assets, &terrain.base, &s.layout, key, loaded, entity, no_shadow);
             s.resident.insert(key, Resident { entity: tile, bytes, last_used: s.frame, shown: false });
         }
-        // Show the tiles the plan draws (it may draw tiles added above only from next frame).
+        // Show the tiles drawn now that tiles came and went (an evicted tile's area falls back to
+        // its coarser tile, which stays while finer tiles hang from it; a tile added above shows
+        // once its mesh and material are ready).
+        let plan = s.layout.plan((cam.x, cam.z), options, |k| s.resident.contains_key(&k));
         let drawn: std::collections::HashSet<TileKey> = plan.drawn.iter().copied().collect();
         for (key, r) in s.resident.iter_mut() {
             let show = drawn.contains(key);
@@ -335,10 +347,58 @@ pub(crate) fn stream_terrain(
     }
 }
 
-/// The stream of `terrain` over its loaded `bundle`: the layout of its tiles, checked against
-/// the budgets before anything is read; or why not.
-fn start(server: &AssetServer, terrain: &StreamedTerrain, bundle: &HikageBundle) -> Result<Streaming, String> {
-    let entry = |part: &str, key: TileKey| bundle.manifest.asset(&TileLayout::tile_id(part, key)).cloned();
+/// Manifests read on their own for terrains whose bundle is still loading (its other assets
+/// read and checked), by entity: tiles stream without waiting for the rest of the bundle.
+#[derive(Default)]
+pub(crate) struct EarlyManifests(HashMap<Entity, (AssetId<HikageBundle>, ManifestRead)>);
+
+/// A manifest being read on the IO task pool.
+type ManifestRead = Task<Result<Manifest, String>>;
+
+impl EarlyManifests {
+    /// The manifest of `bundle` for `entity` once read; starts reading it (on the IO task pool,
+    /// checked as the loader checks it) the first time. `None` while it is read, or when it
+    /// cannot be (the bundle's own load then says why).
+    fn manifest(
+        &mut self,
+        server: &AssetServer,
+        bundle: &Handle<HikageBundle>,
+        entity: Entity,
+    ) -> Option<Arc<Manifest>> {
+        if let Some((_, task)) = self.0.get_mut(&entity).filter(|(id, _)| *id == bundle.id()) {
+            let done = bevy_tasks::futures::check_ready(task)?;
+            self.0.remove(&entity);
+            return done.ok().map(Arc::new);
+        }
+        let path = server.get_path(bundle.id())?;
+        let (server, source, file) = (server.clone(), path.source().clone_owned(), path.path().to_path_buf());
+        let name = path.to_string();
+        let task = IoTaskPool::get().spawn(async move {
+            let source = server.get_source(source).map_err(|e| e.to_string())?;
+            let read = async |file: PathBuf| -> Result<Vec<u8>, String> {
+                let mut reader = source.reader().read(&file).await.map_err(|e| format!("{}: {e}", file.display()))?;
+                let mut bytes = Vec::new();
+                reader.read_to_end(&mut bytes).await.map_err(|e| format!("{}: {e}", file.display()))?;
+                Ok(bytes)
+            };
+            let (text, names) =
+                crate::loader::manifest_text(read(file.clone()).await?, &name).map_err(|e| e.to_string())?;
+            let mut tables = std::collections::BTreeMap::new();
+            for table in names {
+                let bytes = read(file.with_file_name(&table)).await?;
+                tables.insert(table, bytes);
+            }
+            crate::loader::parse_manifest(&text, &name, tables).map_err(|e| e.to_string())
+        });
+        self.0.insert(entity, (bundle.id(), task));
+        None
+    }
+}
+
+/// The stream of `terrain` over its bundle's `manifest`: the layout of its tiles, checked
+/// against the budgets before anything is read; or why not.
+fn start(server: &AssetServer, terrain: &StreamedTerrain, manifest: Arc<Manifest>) -> Result<Streaming, String> {
+    let entry = |part: &str, key: TileKey| manifest.asset(&TileLayout::tile_id(part, key)).cloned();
     let layout = TileLayout::new(&terrain.map, |part, level, (x, y)| entry(part, (level, x, y)))
         .map_err(|e| format!("map `{}`: {e}", terrain.map))?;
     let bytes = |key: TileKey| -> u64 {
@@ -375,8 +435,11 @@ fn start(server: &AssetServer, terrain: &StreamedTerrain, bundle: &HikageBundle)
             terrain.map, options.upload_bytes
         ));
     }
+    let shortfall = layout.budget_shortfall(options, |k| level_bytes[k.0 as usize]);
     let path = server.get_path(terrain.bundle.id()).ok_or("the bundle has no asset path")?;
     Ok(Streaming {
+        manifest,
+        shortfall,
         bundle: terrain.bundle.id(),
         layout,
         level_bytes,
@@ -398,8 +461,8 @@ fn mesh_bytes(w: u32, h: u32) -> u64 {
 }
 
 /// The entries tile `key` is read from; or why not (a tile the layout expects is missing).
-fn request(bundle: &HikageBundle, layout: &TileLayout, key: TileKey) -> Result<Request, String> {
-    let entry = |part: &str, key: TileKey| bundle.manifest.asset(&TileLayout::tile_id(part, key)).cloned();
+fn request(manifest: &Manifest, layout: &TileLayout, key: TileKey) -> Result<Request, String> {
+    let entry = |part: &str, key: TileKey| manifest.asset(&TileLayout::tile_id(part, key)).cloned();
     let must = |part: &str| {
         entry(part, key).ok_or_else(|| format!("tile `{}` is not in the bundle", TileLayout::tile_id(part, key)))
     };
@@ -473,13 +536,13 @@ fn read_tile(
     })
 }
 
-/// Evicts tiles until `bytes` more fit `budget` for `incoming`, in the order
-/// [`TilePlan::victim`] gives. False when the bytes cannot be found.
+/// Evicts tiles until `bytes` more fit `budget`, in the order [`TilePlan::victim`] gives with
+/// the plan's first `affordable` tiles held. False when the bytes cannot be found.
 fn make_room(
     commands: &mut Commands,
     s: &mut Streaming,
     bytes: u64,
-    incoming: TileKey,
+    affordable: usize,
     plan: &TilePlan,
     budget: u64,
 ) -> bool {
@@ -488,7 +551,7 @@ fn make_room(
         if resident + bytes <= budget {
             return true;
         }
-        match plan.victim(incoming, s.resident.iter().map(|(k, r)| (*k, r.last_used))) {
+        match plan.victim(affordable, s.resident.iter().map(|(k, r)| (*k, r.last_used))) {
             Some(k) => {
                 let gone = s.resident.remove(&k).expect("a resident tile");
                 commands.entity(gone.entity).despawn();

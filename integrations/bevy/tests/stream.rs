@@ -150,7 +150,7 @@ fn a_flight_keeps_its_budgets_and_always_has_terrain_underneath() {
     let terrain = app.world().spawn(StreamedTerrain::new(bundle, "dem").with_options(options)).id();
     assert!(app.update_until(600, |w| stats(w, terrain).drawn > 0), "the coarsest level never came");
 
-    let (mut finest, mut streamed, mut peak) = (u32::MAX, 0u64, 0u64);
+    let (mut finest, mut streamed, mut peak, mut before) = (u32::MAX, 0u64, 0u64, None::<u32>);
     let frames = 240;
     for frame in 0..frames {
         // From one corner to the other, low.
@@ -164,11 +164,22 @@ fn a_flight_keeps_its_budgets_and_always_has_terrain_underneath() {
         assert!(s.uploaded_bytes <= options.upload_bytes, "frame {frame}: {s:?}");
         // The camera's ground is covered by a drawn tile.
         let mut tiles = app.world().query::<(&TerrainTile, &Visibility)>();
-        let under = tiles.iter(app.world()).any(|(tile, v)| {
-            let [lo, hi] = tile.rect;
-            *v != Visibility::Hidden && (lo.0..=hi.0).contains(&at.x) && (lo.1..=hi.1).contains(&at.z)
-        });
-        assert!(under, "frame {frame}: no terrain under the camera at {at}: {s:?}");
+        let under = tiles
+            .iter(app.world())
+            .filter(|(tile, v)| {
+                let [lo, hi] = tile.rect;
+                **v != Visibility::Hidden && (lo.0..=hi.0).contains(&at.x) && (lo.1..=hi.1).contains(&at.z)
+            })
+            .map(|(tile, _)| tile.key.0)
+            .min();
+        let Some(under) = under else { panic!("frame {frame}: no terrain under the camera at {at}: {s:?}") };
+        // Moving about a tenth of a level-0 tile a frame, the level under the camera never falls
+        // back by more than one (the parents of drawn tiles stay, the levels around the camera
+        // are held one deeper before it goes deeper).
+        if let Some(before) = before {
+            assert!(under <= before + 1, "frame {frame}: level {before} under the camera, then {under}: {s:?}");
+        }
+        before = Some(under);
         finest = finest.min(s.finest_drawn);
         streamed += s.uploaded_bytes;
         peak = peak.max(s.resident_bytes);
@@ -197,13 +208,70 @@ fn a_wrong_map_or_budget_is_said() {
     let wrong = app.world().spawn(StreamedTerrain::new(bundle.clone(), "nope")).id();
     let tight = StreamOptions { resident_bytes: 1000, ..StreamOptions::default() };
     let small = app.world().spawn(StreamedTerrain::new(bundle.clone(), "dem").with_options(tight)).id();
-    let whole = app.world().spawn(StreamedTerrain::new(bundle, "whole")).id();
+    let whole = app.world().spawn(StreamedTerrain::new(bundle.clone(), "whole")).id();
+    // Room for the coarsest tile and a few more (0.4 MiB each), not for the 13 that level 0
+    // under the camera needs: said, and the stream still draws what the budget holds.
+    let short = StreamOptions { resident_bytes: 3 << 20, ..StreamOptions::default() };
+    let coarse = app.world().spawn(StreamedTerrain::new(bundle, "dem").with_options(short)).id();
     let said = |w: &mut World, e: Entity| w.get::<HikageError>(e).map(|m| m.0.clone());
-    assert!(app.update_until(600, |w| [wrong, small, whole].iter().all(|&e| said(w, e).is_some())));
+    assert!(app.update_until(600, |w| [wrong, small, whole, coarse].iter().all(|&e| said(w, e).is_some())));
+    let coarse_said = said(app.world(), coarse).unwrap();
+    assert!(
+        coarse_said.contains("3.0 MiB holds level")
+            && coarse_said.contains("level 0 needs")
+            && coarse_said.contains("64²"),
+        "{coarse_said}"
+    );
+    assert!(app.update_until(600, |w| stats(w, coarse).drawn > 0), "the short budget's stream draws nothing");
     let wrong = said(app.world(), wrong).unwrap();
     assert!(wrong.contains("map `nope`") && wrong.contains("tile"), "{wrong}");
     let small = said(app.world(), small).unwrap();
     assert!(small.contains("resident budget of 1000"), "{small}");
     let whole = said(app.world(), whole).unwrap();
     assert!(whole.contains("map `whole`"), "{whole}");
+}
+
+/// Tiles stream from the manifest alone, never waiting for the bundle's other assets to be read
+/// and checked: with the whole map's horizons missing from the bundle (so the bundle itself
+/// never loads), the tiles still come, and the entity says what the bundle lacks.
+#[test]
+fn tiles_stream_without_waiting_for_the_rest_of_the_bundle() {
+    if !gpu_or_skip("tiles_stream_without_waiting_for_the_rest_of_the_bundle") {
+        return;
+    }
+    let baked = bundle();
+    let dir = baked.parent().unwrap().join("stream_lacking");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(dir.join("bundle")).unwrap();
+    for entry in std::fs::read_dir(baked.join("bundle")).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        if !name.starts_with("whole.horizon.") {
+            std::fs::copy(&path, dir.join("bundle").join(&name)).unwrap();
+        }
+    }
+    let mut app = Headless::new(&dir, |app| {
+        app.add_plugins(hikage_bevy::HikagePlugin);
+    });
+    let target = app.target(32, 32);
+    let side = N as f32 * TEXEL;
+    app.world().spawn((
+        Camera3d::default(),
+        bevy::camera::RenderTarget::from(target),
+        Transform::from_xyz(0.5 * side, 800.0, 0.5 * side).looking_at(Vec3::new(0.6 * side, 0.0, 0.6 * side), Vec3::Y),
+    ));
+    app.world().spawn((
+        DirectionalLight { shadow_maps_enabled: true, ..default() },
+        Transform::IDENTITY.looking_to(-low_sun(), Vec3::Y),
+    ));
+    let start = std::time::Instant::now();
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    let terrain = app.world().spawn(StreamedTerrain::new(bundle.clone(), "dem")).id();
+    assert!(app.update_until(600, |w| stats(w, terrain).finest_drawn == 0), "level 0 never came");
+    eprintln!("level 0 drawn after {:.2} s, the bundle still loading", start.elapsed().as_secs_f64());
+    let failed = |w: &mut World| w.resource::<AssetServer>().load_state(&bundle).is_failed();
+    assert!(app.update_until(600, |w| failed(w) && w.get::<HikageError>(terrain).is_some()), "the load never failed");
+    assert_eq!(stats(app.world(), terrain).finest_drawn, 0, "the tiles stay drawn");
+    let said = app.world().get::<HikageError>(terrain).map(|e| e.0.clone()).unwrap_or_default();
+    assert!(said.contains("whole.horizon"), "{said}");
 }

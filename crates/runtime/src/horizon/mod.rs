@@ -30,7 +30,8 @@ pub use stream::{MAX_TILE_SIDE, StreamOptions, StreamStats, TerrainStream};
 pub use surface::{SurfaceFrame, SurfaceShadows, SurfaceUniform};
 pub use terrain::{Sun, TerrainExtent, TerrainFrame, TerrainShadows, TerrainUniform};
 pub use tile_plan::{
-    TileKey, TileLayout, TileLevel, TileParts, TilePlan, apron_neighbours, heights_with_apron, tile_device_bytes,
+    BudgetShortfall, TileKey, TileLayout, TileLevel, TileParts, TilePlan, apron_neighbours, heights_with_apron,
+    tile_device_bytes,
 };
 
 /// WGSL of the horizon functions (no bindings); include it in a shader module. The components

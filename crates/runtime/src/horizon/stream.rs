@@ -13,7 +13,7 @@ use hikage_bundle::{Asset, PayloadData, TextureData};
 use super::horizon_filterable;
 use super::terrain::{TerrainBinding, TerrainExtent, TerrainFrame, terrain_layout, terrain_program};
 use super::tile_plan::{
-    TileKey, TileLayout, TileParts, TilePlan, apron_neighbours, heights_with_apron, tile_device_bytes,
+    BudgetShortfall, TileKey, TileLayout, TileParts, TilePlan, apron_neighbours, heights_with_apron, tile_device_bytes,
 };
 use crate::draw::DrawOptions;
 use crate::error::RuntimeError;
@@ -102,11 +102,13 @@ struct Resident {
 /// - **Loading:** a thread of its own reads, hashes and decodes the tiles asked for (at most 8 in
 ///   flight, coarser and nearer first); [`update`](TerrainStream::update) never waits on it.
 /// - **Uploads:** at most [`StreamOptions::upload_bytes`] of textures an update.
-/// - **Residency:** at most [`StreamOptions::resident_bytes`]. Tiles are wanted in order of
-///   their distance in tile widths (the tile under the camera first, then the coarser); to make
-///   room, tiles no longer wanted go first (least recently drawn first), then wanted ones less
-///   wanted than the tile coming in; never a tile drawn now, never the coarsest level's, which
-///   stay so that there is always terrain to draw.
+/// - **Residency:** at most [`StreamOptions::resident_bytes`]. Tiles are wanted four at a time
+///   (the four that replace a coarser tile), the sets nearest the camera in tile widths first
+///   ([`TilePlan`]); only whole sets the budget holds are read, so a budget too small for the
+///   next level holds the finest it can (see [`budget_warning`](TerrainStream::budget_warning)).
+///   To make room, tiles no longer wanted go first (least recently drawn first), then those of
+///   sets less wanted than the one coming in; never a tile that finer resident tiles hang from,
+///   never the coarsest level's, which stay so that there is always terrain to draw.
 /// - **While a finer tile loads** its coarser tile is drawn: a tile is replaced only when all
 ///   four of its finer tiles are on the device.
 /// - **Cracks** between levels are hidden by skirts ([`StreamOptions::skirt_texels`]).
@@ -150,13 +152,15 @@ pub struct TerrainStream {
     drawn: Vec<Key>,
     frame: u64,
     extent: TerrainExtent,
+    shortfall: Option<BudgetShortfall>,
 }
 
 impl TerrainStream {
     /// Opens the tiles of map `map` (the tiled job's id) in the bundle in `dir`, loads its
     /// coarsest level before returning (so there is always terrain to draw) and starts the
     /// loader thread. Refuses tiles wider than [`MAX_TILE_SIDE`], a coarsest level larger than
-    /// the resident budget, and a tile larger than the upload budget.
+    /// the resident budget, and a tile larger than the upload budget; a budget that cannot hold
+    /// the finest level under the camera is its [`budget_warning`](TerrainStream::budget_warning).
     pub fn open(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
@@ -229,6 +233,7 @@ impl TerrainStream {
                 options.upload_bytes
             )));
         }
+        let shortfall = binder.tiles.budget_shortfall(&options, |k| level_bytes[k.0 as usize]);
         // The coarsest level, now: there is always terrain to draw.
         let mut resident = HashMap::new();
         let mut program = None;
@@ -259,7 +264,24 @@ impl TerrainStream {
             drawn: Vec::new(),
             frame: 0,
             extent,
+            shortfall,
         })
+    }
+
+    /// The warning of [`open`](TerrainStream::open) when the resident budget cannot hold level
+    /// [`StreamOptions::finest_level`] under the camera: the stream then holds the finest
+    /// complete level the budget allows and reads nothing finer, and this says what budget
+    /// would do. `None` when the budget reaches it.
+    ///
+    /// ```no_run
+    /// # fn f(stream: &hikage_runtime::horizon::TerrainStream) {
+    /// if let Some(short) = stream.budget_warning() {
+    ///     eprintln!("terrain: {short}"); // or raise `resident_bytes` to `short.needed`
+    /// }
+    /// # }
+    /// ```
+    pub fn budget_warning(&self) -> Option<&BudgetShortfall> {
+        self.shortfall.as_ref()
     }
 
     /// The whole map's extent in the map frame (heights from the coarsest level).
@@ -284,7 +306,6 @@ impl TerrainStream {
         let cam = frame.model.inverse().transform_point3(eye);
         // 1. What to draw, and what is wanted (in the order it is wanted).
         let plan = self.binder.tiles.plan((cam.x, cam.z), &self.options, |k| self.resident.contains_key(&k));
-        let missing = plan.wanted.iter().filter(|k| !self.resident.contains_key(k)).count();
         // 2. What the loader finished.
         let mut failure = None;
         while let Ok((key, result)) = self.results.try_recv() {
@@ -298,7 +319,8 @@ impl TerrainStream {
         self.ready.make_contiguous().sort_by_key(|(key, _)| plan.rank(*key));
         // 3. Requests, coarser and nearer first (the order of `wanted`), of what the budget holds.
         let level_bytes = &self.level_bytes;
-        for &key in plan.affordable(self.options.resident_bytes, |k| level_bytes[k.0 as usize]) {
+        let affordable = plan.affordable(self.options.resident_bytes, |k| level_bytes[k.0 as usize]);
+        for &key in affordable {
             if self.pending.len() >= MAX_PENDING {
                 break;
             }
@@ -312,7 +334,7 @@ impl TerrainStream {
         while let Some((key, assets)) = self.ready.pop_front() {
             let bytes: u64 = assets.iter().filter_map(|a| a.texture()).map(|t| t.desc.total_bytes().unwrap_or(0)).sum();
             let fits = uploaded + bytes <= self.options.upload_bytes;
-            if !fits || !self.make_room(bytes, key, &plan) {
+            if !fits || !self.make_room(bytes, affordable.len(), &plan) {
                 self.ready.push_front((key, assets));
                 break;
             }
@@ -325,7 +347,10 @@ impl TerrainStream {
                 Err(e) => failure = failure.or(Some(e)),
             }
         }
-        // 5. The drawn tiles' uniforms.
+        // 5. What to draw now that tiles came and went (an evicted tile's area falls back to its
+        // coarser tile, which stays while finer tiles hang from it), and its uniforms.
+        let plan = self.binder.tiles.plan((cam.x, cam.z), &self.options, |k| self.resident.contains_key(&k));
+        let missing = plan.wanted.iter().filter(|k| !self.resident.contains_key(k)).count();
         for key in &plan.drawn {
             let r = self.resident.get_mut(key).expect("drawn tiles are resident");
             r.last_used = self.frame;
@@ -369,15 +394,15 @@ impl TerrainStream {
         &self.program.wgsl
     }
 
-    /// Evicts tiles until `bytes` more fit the resident budget for `incoming`, in the order
-    /// [`TilePlan::victim`] gives. False when the bytes cannot be found.
-    fn make_room(&mut self, bytes: u64, incoming: Key, plan: &TilePlan) -> bool {
+    /// Evicts tiles until `bytes` more fit the resident budget, in the order [`TilePlan::victim`]
+    /// gives with the plan's first `affordable` tiles held. False when the bytes cannot be found.
+    fn make_room(&mut self, bytes: u64, affordable: usize, plan: &TilePlan) -> bool {
         loop {
             let resident: u64 = self.resident.values().map(|r| r.bytes).sum();
             if resident + bytes <= self.options.resident_bytes {
                 return true;
             }
-            match plan.victim(incoming, self.resident.iter().map(|(k, r)| (*k, r.last_used))) {
+            match plan.victim(affordable, self.resident.iter().map(|(k, r)| (*k, r.last_used))) {
                 Some(k) => {
                     self.resident.remove(&k);
                 }
