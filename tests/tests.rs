@@ -19,6 +19,7 @@ mod gpu_relief;
 mod gpu_skin;
 mod gpu_stream;
 mod hostile;
+mod raised;
 mod shard;
 mod sheet;
 mod tiles;

@@ -121,15 +121,85 @@ pub fn horizon_sun_visible(map: &HorizonMap, uv: Vec2, sun: Vec3, texel_size: Ve
     horizon_disc_visible(elevation - tan_beta.atan(), radius)
 }
 
-/// `(tan β, d)` at texture coordinate `uv` for texel-space azimuth `phi` (radians), decoded.
-pub fn horizon_fetch(map: &HorizonMap, uv: Vec2, phi: f32) -> [f32; 2] {
-    let w = phi / std::f32::consts::TAU + 0.5 / map.directions as f32;
-    let [c0, c1] = map.sample(uv.extend(w));
+/// Horizon points a raised point's walk visits at most ([`horizon_raised_sun_visible`]).
+pub const RAISED_HOPS: u32 = 8;
+
+/// Sun visibility of a point `height` above the heightfield at `uv` (bump-world units), from the
+/// horizons alone, as `horizon_raised_sun_visible` in WGSL. A texel's horizon point, then that
+/// point's own horizon point, and so on, are the vertices of the upper convex hull of the
+/// terrain's profile in that direction; a raised point's horizon is the vertex it sees highest,
+/// where the slope from it stops rising ([`horizon_raised_angle`]). So a farther ridge that the
+/// ground's near occluder hides still shadows a point above it. The walk runs in the two baked
+/// directions either side of the sun, on stored texels (a blend of two texels' occluders is no
+/// point of the terrain), and its angles are blended as the sampler blends the ground's.
+/// `reach` bounds it (the bake's `max_distance`, or the map's extent); `height` 0 is the ground.
+pub fn horizon_raised_sun_visible(
+    map: &HorizonMap,
+    uv: Vec2,
+    sun: Vec3,
+    texel_size: Vec2,
+    height: f32,
+    reach: f32,
+    radius: f32,
+) -> f32 {
+    let directions = map.directions as f32;
+    let f = (horizon_texel_azimuth(sun, texel_size) / std::f32::consts::TAU * directions).rem_euclid(directions);
+    let k0 = f.floor();
+    let at = uv * Vec2::new(map.width as f32, map.height as f32);
+    let angle = |k: f32| horizon_raised_angle(map, at, k.rem_euclid(directions) as u32, texel_size, height, reach);
+    let horizon = angle(k0) + (angle(k0 + 1.0) - angle(k0)) * (f - k0);
+    let elevation = sun.z.atan2(sun.truncate().length());
+    horizon_disc_visible(elevation - horizon, radius)
+}
+
+/// The horizon angle (radians) of a point `height` above the heightfield at texel coordinates
+/// `at`, in baked direction `k`: the walk of [`horizon_raised_sun_visible`] over the stored
+/// texels under each horizon point (at most [`RAISED_HOPS`], none past `reach`, none off the
+/// map), as `horizon_raised_angle` in WGSL; −π/2 with no occluder.
+pub fn horizon_raised_angle(map: &HorizonMap, at: Vec2, k: u32, texel_size: Vec2, height: f32, reach: f32) -> f32 {
+    let phi = std::f32::consts::TAU * k as f32 / map.directions as f32;
+    let along = Vec2::new(phi.cos(), phi.sin());
+    // Texels per world unit along the direction.
+    let step = along / (along * texel_size).length();
+    let (mut t, mut z, mut best) = (0.0f32, 0.0f32, -1e30f32);
+    for _ in 0..RAISED_HOPS {
+        let p = (at + step * t).floor();
+        if p.x < 0.0 || p.y < 0.0 || p.x >= map.width as f32 || p.y >= map.height as f32 {
+            break;
+        }
+        let [tan_beta, d] = horizon_load(map, (p.x as u32, p.y as u32), k);
+        if d <= 0.0 || t + d > reach {
+            break;
+        }
+        let (t1, z1) = (t + d, z + d * tan_beta);
+        let slope = (z1 - height) / t1;
+        if slope <= best {
+            break;
+        }
+        (t, z, best) = (t1, z1, slope);
+    }
+    best.atan()
+}
+
+/// `(tan β, d)` of texel `texel` in direction `k`, decoded, as `horizon_load` in WGSL.
+pub fn horizon_load(map: &HorizonMap, (x, y): (u32, u32), k: u32) -> [f32; 2] {
+    let i = (k as usize * map.height + y as usize) * map.width + x as usize;
+    decode(map, map.texels[i])
+}
+
+/// Stored channels `[c0, c1]` as `(tan β, d)`.
+fn decode(map: &HorizonMap, [c0, c1]: [f32; 2]) -> [f32; 2] {
     if map.encoding.format == 1 {
         let slope = if c0 > 0.0 { ((c0 - 0.5) * std::f32::consts::PI).tan() } else { map.encoding.open_sky_slope };
         return [slope, c1 * map.encoding.distance_scale];
     }
     [c0, c1]
+}
+
+/// `(tan β, d)` at texture coordinate `uv` for texel-space azimuth `phi` (radians), decoded.
+pub fn horizon_fetch(map: &HorizonMap, uv: Vec2, phi: f32) -> [f32; 2] {
+    let w = phi / std::f32::consts::TAU + 0.5 / map.directions as f32;
+    decode(map, map.sample(uv.extend(w)))
 }
 
 /// A horizon texture on the CPU, sampled as the GPU does with [`super::horizon_sampler`]: trilinear
@@ -197,6 +267,77 @@ impl HorizonMap {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A profile along +u (one row, one direction, 1 m texels, clamped): flat ground, a 10 m
+    /// bump at 5 m and a 60 m ridge at 40 m, its horizons found by trying every sample ahead.
+    fn ridge_map() -> (Vec<f32>, HorizonMap) {
+        let heights: Vec<f32> = (0..64)
+            .map(|x| match x {
+                5 => 10.0,
+                40 => 60.0,
+                _ => 0.0,
+            })
+            .collect();
+        let texels: Vec<f32> = (0..64usize)
+            .flat_map(|x| {
+                let ahead = (x + 1..64).map(|y| ((heights[y] - heights[x]) / (y - x) as f32, (y - x) as f32));
+                let (slope, d) = ahead.fold((-1e9f32, 0.0f32), |b, c| if c.0 > b.0 { c } else { b });
+                [slope, d]
+            })
+            .collect();
+        let desc = hikage_bundle::TextureDesc {
+            format: hikage_bundle::TextureFormat::Rg32Float,
+            dimension: TextureDimension::D3,
+            width: 64,
+            height: 1,
+            depth: 1,
+            layers: 1,
+            levels: 1,
+            supercompression: hikage_bundle::Supercompression::None,
+            channels: vec!["slope".into(), "distance".into()],
+        };
+        let texture = TextureData::from_f32(desc, &texels).unwrap();
+        let settings = HorizonSettings {
+            heightfield: "h".into(),
+            directions: 1,
+            edge: EdgeMode::Clamp,
+            max_distance: None,
+            near_field: 16,
+            texel_size: (1.0, 1.0),
+            height_scale: 1.0,
+            open_sky_slope: -1e9,
+            distance_scale: 1.0,
+            tile: None,
+        };
+        (heights, HorizonMap::new(&texture, &settings, false).unwrap())
+    }
+
+    /// From 9 m above the foot of the bump the ridge behind it rises highest (51 m over 40 m),
+    /// not the bump (1 m over 5 m): the walk over the horizon points finds it, where the
+    /// bump's horizon seen from the raised point would light it under a 30° sun; on the ground the
+    /// walk is the ground's test.
+    #[test]
+    fn a_raised_point_sees_the_ridge_behind_the_near_occluder() {
+        let (_, map) = ridge_map();
+        let at = |elevation: f32| Vec3::new(elevation.to_radians().cos(), 0.0, elevation.to_radians().sin());
+        let uv = Vec2::new(0.5 / 64.0, 0.5);
+        let raised = |elevation: f32, h: f32| {
+            horizon_raised_sun_visible(&map, uv, at(elevation), Vec2::ONE, h, f32::INFINITY, 0.0)
+        };
+        // 51/40 = tan 51.9°.
+        assert_eq!((raised(30.0, 9.0), raised(51.0, 9.0), raised(53.0, 9.0)), (0.0, 0.0, 1.0));
+        // The bump alone, seen from the raised point: (10 − 9) / 5 = tan 11.3°.
+        let [tan_beta, d] = horizon_fetch(&map, uv, 0.0);
+        assert_eq!((tan_beta, d), (2.0, 5.0));
+        assert!(((d * tan_beta - 9.0) / d).atan().to_degrees() < 30.0);
+        // On the ground: the bump, tan β = 2 (63.4°), as the ground's own test.
+        for elevation in [30.0, 63.0, 64.0] {
+            let ground = horizon_sun_visible(&map, uv, at(elevation), Vec2::ONE, 0.0);
+            assert_eq!(raised(elevation, 0.0), ground, "{elevation}°");
+        }
+        // A reach short of the ridge leaves the bump: lit at 30° from 9 m up.
+        assert_eq!(horizon_raised_sun_visible(&map, uv, at(30.0), Vec2::ONE, 9.0, 39.0, 0.0), 1.0);
+    }
 
     #[test]
     fn corrected_slope_follows_the_equations() {

@@ -174,3 +174,87 @@ fn horizon_sun_visible(
     let elevation = atan2(sun.z, length(sun.xy));
     return horizon_disc_visible(elevation - atan(hd.x), radius);
 }
+
+// (tan beta, d) of texel `texel` in baked direction `k`, decoded.
+fn horizon_load(map: texture_3d<f32>, enc: HorizonEncoding, texel: vec2<u32>, k: u32) -> vec2<f32> {
+    let t = textureLoad(map, vec3<u32>(texel, k), 0).xy;
+    if (enc.format == 1u) {
+        var slope = enc.open_sky_slope;
+        if (t.x > 0.0) {
+            slope = tan((t.x - 0.5) * HORIZON_PI);
+        }
+        return vec2<f32>(slope, t.y * enc.distance_scale);
+    }
+    return t;
+}
+
+// The horizon angle (radians) of a point `height` above the heightfield at texel coordinates
+// `at`, in baked direction `k`: its texel's horizon point, that point's own horizon point, and so
+// on (the vertices of the upper convex hull of the profile), on stored texels, until the slope
+// from the raised point stops rising; at most 8 points, none past `reach`, none off the map.
+// -pi/2 with no occluder.
+fn horizon_raised_angle(
+    map: texture_3d<f32>,
+    enc: HorizonEncoding,
+    at: vec2<f32>,
+    k: u32,
+    texel_size: vec2<f32>,
+    height: f32,
+    reach: f32,
+) -> f32 {
+    let dims = textureDimensions(map);
+    let phi = HORIZON_TAU * f32(k) / f32(dims.z);
+    let along = vec2<f32>(cos(phi), sin(phi));
+    let step = along / length(along * texel_size);
+    var t = 0.0;
+    var z = 0.0;
+    var best = -1e30;
+    for (var hop = 0u; hop < 8u; hop++) {
+        let p = floor(at + step * t);
+        if (p.x < 0.0 || p.y < 0.0 || p.x >= f32(dims.x) || p.y >= f32(dims.y)) {
+            break;
+        }
+        let hd = horizon_load(map, enc, vec2<u32>(p), k);
+        if (hd.y <= 0.0 || t + hd.y > reach) {
+            break;
+        }
+        let t1 = t + hd.y;
+        let z1 = z + hd.y * hd.x;
+        let slope = (z1 - height) / t1;
+        if (slope <= best) {
+            break;
+        }
+        t = t1;
+        z = z1;
+        best = slope;
+    }
+    return atan(best);
+}
+
+// Sun visibility of a point `height` above the heightfield at `uv` (bump-world units), from the
+// horizons alone: the raised point's horizon in the two baked directions either side of the sun
+// (horizon_raised_angle), blended as the sampler blends the ground's, against the sun's disc.
+// A farther ridge that the ground's near occluder hides still shadows a point above it. `reach`
+// bounds the walk (the bake's max distance, or the map's extent); `height` 0 is the ground.
+fn horizon_raised_sun_visible(
+    map: texture_3d<f32>,
+    enc: HorizonEncoding,
+    uv: vec2<f32>,
+    sun: vec3<f32>,
+    texel_size: vec2<f32>,
+    height: f32,
+    reach: f32,
+    radius: f32,
+) -> f32 {
+    let dims = textureDimensions(map);
+    let directions = f32(dims.z);
+    let turns = horizon_texel_azimuth(sun, texel_size) / HORIZON_TAU * directions;
+    let f = turns - floor(turns / directions) * directions;
+    let k0 = floor(f);
+    let at = uv * vec2<f32>(dims.xy);
+    let a0 = horizon_raised_angle(map, enc, at, u32(k0) % dims.z, texel_size, height, reach);
+    let a1 = horizon_raised_angle(map, enc, at, (u32(k0) + 1u) % dims.z, texel_size, height, reach);
+    let horizon = a0 + (a1 - a0) * (f - k0);
+    let elevation = atan2(sun.z, length(sun.xy));
+    return horizon_disc_visible(elevation - horizon, radius);
+}
