@@ -187,7 +187,7 @@ pub fn horizon_load(map: &HorizonMap, (x, y): (u32, u32), k: u32) -> [f32; 2] {
     decode(map, map.texels[i])
 }
 
-/// Stored channels `[c0, c1]` as `(tan β, d)`.
+/// Stored channels `[c0, c1]` as `(tan β, d)`, as `horizon_decode` in WGSL.
 fn decode(map: &HorizonMap, [c0, c1]: [f32; 2]) -> [f32; 2] {
     if map.encoding.format == 1 {
         let slope = if c0 > 0.0 { ((c0 - 0.5) * std::f32::consts::PI).tan() } else { map.encoding.open_sky_slope };

@@ -62,7 +62,11 @@ fn horizon_texel_azimuth(light: vec3<f32>, texel_size: vec2<f32>) -> f32 {
 fn horizon_fetch(map: texture_3d<f32>, samp: sampler, enc: HorizonEncoding, uv: vec2<f32>, phi: f32) -> vec2<f32> {
     let directions = f32(textureDimensions(map).z);
     let w = phi / HORIZON_TAU + 0.5 / directions;
-    let t = textureSampleLevel(map, samp, vec3<f32>(uv, w), 0.0).xy;
+    return horizon_decode(enc, textureSampleLevel(map, samp, vec3<f32>(uv, w), 0.0).xy);
+}
+
+// Stored channels `t` as (tan beta, d).
+fn horizon_decode(enc: HorizonEncoding, t: vec2<f32>) -> vec2<f32> {
     if (enc.format == 1u) {
         var slope = enc.open_sky_slope;
         if (t.x > 0.0) {
@@ -177,15 +181,7 @@ fn horizon_sun_visible(
 
 // (tan beta, d) of texel `texel` in baked direction `k`, decoded.
 fn horizon_load(map: texture_3d<f32>, enc: HorizonEncoding, texel: vec2<u32>, k: u32) -> vec2<f32> {
-    let t = textureLoad(map, vec3<u32>(texel, k), 0).xy;
-    if (enc.format == 1u) {
-        var slope = enc.open_sky_slope;
-        if (t.x > 0.0) {
-            slope = tan((t.x - 0.5) * HORIZON_PI);
-        }
-        return vec2<f32>(slope, t.y * enc.distance_scale);
-    }
-    return t;
+    return horizon_decode(enc, textureLoad(map, vec3<u32>(texel, k), 0).xy);
 }
 
 // The horizon angle (radians) of a point `height` above the heightfield at texel coordinates
