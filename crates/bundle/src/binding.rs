@@ -96,7 +96,18 @@ impl Scalp {
         let joints = read_elements(&mesh.bytes, joints_accessor)
             .map(|e| std::array::from_fn(|k| u16::from_le_bytes([e[2 * k], e[2 * k + 1]])))
             .collect();
-        let indices = mesh.read_indices().ok_or("a scalp needs triangle indices")?;
+        // The skinning pass reads the triangles as 4-byte words.
+        match &mesh.desc.indices {
+            Some(ix) if ix.component == ComponentType::U32 && ix.offset.is_multiple_of(4) => {}
+            Some(ix) => {
+                return Err(format!(
+                    "a scalp needs U32 triangle indices on a 4-byte boundary, found {:?} at byte {}",
+                    ix.component, ix.offset
+                ));
+            }
+            None => return Err("a scalp needs triangle indices".into()),
+        }
+        let indices = mesh.read_indices().expect("checked above");
         if let Some(bad) = indices.iter().find(|&&i| i >= mesh.desc.vertex_count) {
             return Err(format!("index {bad} is not below the scalp's {} vertices", mesh.desc.vertex_count));
         }
@@ -168,6 +179,15 @@ mod tests {
             triangles: vec![[0, 1, 2]],
         };
         let read = Scalp::read(&scalp.to_mesh().unwrap()).unwrap();
+        // 16-bit indices, which the skinning pass cannot read, are refused by name.
+        let mut narrow = scalp.to_mesh().unwrap();
+        let offset = narrow.bytes.len() as u64;
+        narrow.bytes.extend([0u8, 0, 1, 0, 2, 0, 0, 0]);
+        let ix = narrow.desc.indices.as_mut().unwrap();
+        (ix.component, ix.offset, ix.stride) = (ComponentType::U16, offset, 2);
+        narrow.desc.check(narrow.bytes.len() as u64).unwrap();
+        let e = Scalp::read(&narrow).unwrap_err();
+        assert!(e.contains("U32 triangle indices") && e.contains("U16"), "{e}");
         assert_eq!(
             (&read.positions, &read.joints, &read.reach, &read.triangles),
             (&scalp.positions, &scalp.joints, &scalp.reach, &scalp.triangles)

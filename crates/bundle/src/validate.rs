@@ -107,6 +107,10 @@ fn check_asset(bundle: &Bundle, asset: &Asset) -> Result<(), BundleError> {
     check_payload(asset, &bytes, &bundle.payload_path(asset), bundle.limits())?;
     match &asset.settings {
         crate::Settings::HairBinding(b) => check_binding(bundle, asset, b),
+        // What the skinning pass reads of a scalp, bound or not.
+        crate::Settings::Scalp(_) => crate::Scalp::read(&bundle.read_mesh(&asset.id)?).map(|_| ()).map_err(|message| {
+            BundleError::Payload { path: bundle.payload_path(asset), asset: asset.id.clone(), message }
+        }),
         _ => Ok(()),
     }
 }
