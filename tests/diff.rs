@@ -79,6 +79,16 @@ fn tolerances_from_flags_or_the_pipeline_let_a_change_pass() {
     dir.run_expecting(&["diff", "old/bundle", "new/bundle", "--pipeline", "gate.ron"], 0);
     // A bad tolerance is a usage error.
     dir.run_expecting(&["diff", "old/bundle", "new/bundle", "--height", "-1"], 2);
+    // In a pipeline, NaN (which would turn the gate off) and a negative tolerance (which would
+    // fail everything) are refused at their place, and so is a pipeline that `validate` checks.
+    for (name, value, place) in [("nan.ron", "NaN", "nan.ron:2:5"), ("negative.ron", "-0.5", "negative.ron:2:5")] {
+        dir.write(name, format!("(output: \"x\", tolerances: (height: 31,\n    sun_flips: {value}), jobs: [{JOB}])"));
+        for args in [vec!["diff", "old/bundle", "new/bundle", "--pipeline", name], vec!["validate", name]] {
+            let out = dir.run_expecting(&args, 1);
+            let err = String::from_utf8_lossy(&out.stderr).into_owned();
+            assert!(err.contains(place) && err.contains("sun_flips must be a finite number ≥ 0"), "{err}");
+        }
+    }
 }
 
 #[test]

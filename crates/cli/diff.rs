@@ -70,10 +70,10 @@ impl DiffArgs {
     fn tolerances(&self) -> Result<Tolerances, Failure> {
         let mut t = match &self.pipeline {
             Some(path) => {
-                hikage_bake::pipeline::Pipeline::load(path)
-                    .with_context(|| format!("reading the tolerances of {}", path.display()))?
-                    .pipeline
-                    .tolerances
+                let loaded = hikage_bake::pipeline::Pipeline::load(path)
+                    .with_context(|| format!("reading the tolerances of {}", path.display()))?;
+                loaded.check().with_context(|| format!("reading the tolerances of {}", path.display()))?;
+                loaded.pipeline.tolerances
             }
             None => Tolerances::default(),
         };

@@ -39,6 +39,32 @@ pub struct Tolerances {
     pub value: f32,
 }
 
+impl Tolerances {
+    /// Each tolerance with its name, as a pipeline's `tolerances` spells it.
+    pub fn named(&self) -> [(&'static str, f32); 9] {
+        [
+            ("horizon_degrees", self.horizon_degrees),
+            ("sun_flips", self.sun_flips),
+            ("distance_texels", self.distance_texels),
+            ("height", self.height),
+            ("ao", self.ao),
+            ("relief_texels", self.relief_texels),
+            ("curvature", self.curvature),
+            ("point_move", self.point_move),
+            ("value", self.value),
+        ]
+    }
+
+    /// The first tolerance that is not a finite number ≥ 0, as a message naming it: NaN would
+    /// turn the gate off and a negative one would fail every comparison.
+    pub fn check(&self) -> Result<(), String> {
+        match self.named().into_iter().find(|(_, v)| !(v.is_finite() && *v >= 0.0)) {
+            Some((name, v)) => Err(format!("{name} must be a finite number ≥ 0 (a tolerance), found {v}")),
+            None => Ok(()),
+        }
+    }
+}
+
 /// Whether an asset is in both bundles and what became of it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -181,7 +207,9 @@ fn compare(
 
 /// The largest of `values` and where it is.
 fn largest(values: impl Iterator<Item = f64>) -> (f64, usize) {
-    values.enumerate().fold((0.0, 0), |(m, at), (i, v)| if v > m { (v, i) } else { (m, at) })
+    // A value that became NaN (or was compared with one) is no agreement: the largest change.
+    let change = |v: f64| if v.is_nan() { f64::INFINITY } else { v };
+    values.enumerate().fold((0.0, 0), |(m, at), (i, v)| if change(v) > m { (change(v), i) } else { (m, at) })
 }
 
 /// A texel's place in `[slice][row][col]` order, named with its slice's meaning (`slice`, e.g.
@@ -384,4 +412,22 @@ fn mesh_change(
         });
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A value that became NaN is the largest change, not none; a NaN or negative tolerance is
+    /// named.
+    #[test]
+    fn nan_is_the_largest_change_and_bad_tolerances_are_named() {
+        assert_eq!(largest([0.5, f64::NAN, 2.0].into_iter()), (f64::INFINITY, 1));
+        assert_eq!(largest([0.5, 2.0, 1.0].into_iter()), (2.0, 1));
+        assert!(Tolerances::default().check().is_ok());
+        let nan = Tolerances { ao: f32::NAN, ..Tolerances::default() };
+        assert!(nan.check().unwrap_err().starts_with("ao must be a finite number"));
+        let negative = Tolerances { point_move: -1.0, ..Tolerances::default() };
+        assert!(negative.check().unwrap_err().starts_with("point_move"));
+    }
 }

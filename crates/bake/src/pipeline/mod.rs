@@ -203,6 +203,12 @@ impl Pipeline {
                 }
             }
         }
+        self.tolerances.check().map_err(|message| BakeError::Setting {
+            path: path.to_path_buf(),
+            place: spans.tolerances.place_of(&message),
+            job: "tolerances".into(),
+            message,
+        })?;
         // What the budget names must be the pipeline's: a typo must not leave a job unbounded.
         let budget = |message: String| BakeError::Setting {
             path: path.to_path_buf(),

@@ -19,6 +19,8 @@ pub struct Spans {
     pub jobs: Vec<Fields>,
     /// The fields of `limits: (…)`.
     pub limits: Fields,
+    /// The fields of `tolerances: (…)`.
+    pub tolerances: Fields,
 }
 
 /// Where a value starts and where each field inside it is named.
@@ -78,6 +80,7 @@ pub fn scan(text: &str) -> Spans {
                 p.eat_punct(']');
             }
             "limits" => spans.limits = p.fields_of_value(),
+            "tolerances" => spans.tolerances = p.fields_of_value(),
             _ => p.skip_value(),
         }
         p.eat_punct(',');
