@@ -9,8 +9,13 @@
 //!
 //! ```sh
 //! cargo run --release --ignore-rust-version --example measure           # every table
-//! cargo run --release --ignore-rust-version --example measure -- hair   # or one: terrain, hair, relief, density
+//! cargo run --release --ignore-rust-version --example measure -- hair   # or one: terrain, hair, relief, stream, density
 //! ```
+//!
+//! `stream` bakes its own bundle (a generated 1024² map in 128² tiles, and the same map whole)
+//! and times how soon tiles arrive; run it in the dev profile too (`cargo run --example measure
+//! -- stream`, with and without `--config 'profile.dev.package."*".opt-level=3'`) for the
+//! dev-profile table of docs/bevy.md.
 
 #[path = "common/mod.rs"]
 mod common;
@@ -55,6 +60,10 @@ fn main() {
     if run("relief") {
         println!();
         relief_comparison(&root);
+    }
+    if run("stream") {
+        println!();
+        stream_arrival();
     }
     if run("density") {
         println!();
@@ -459,4 +468,101 @@ fn densities(extent: f32, fitted: Option<FittedShadows>) -> (f32, f32, f32) {
     values.sort_by(f32::total_cmp);
     let at = |q: usize| values.get(values.len() * q / 100).copied().unwrap_or(0.0);
     (at(50), at(10), values.len() as f32 / points as f32)
+}
+
+/// A generated 1024² map baked in 128² tiles with every level (`dem`) and whole (`whole`, 16×
+/// a tile's texels that the bundle's loader reads and checks): the bundle `stream` times.
+fn stream_bundle() -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join("hikage_measure_stream");
+    if dir.join("bundle/bundle.ron").exists() {
+        return dir;
+    }
+    std::fs::create_dir_all(&dir).unwrap();
+    let heights: Vec<u8> = hikage_devkit::synth::terrain(1024).into_iter().flat_map(f32::to_le_bytes).collect();
+    std::fs::write(dir.join("dem.r32"), heights).unwrap();
+    let job = |id: &str, tiles: &str| {
+        format!(
+            r#"Horizon(id: "{id}", input: "dem.r32", texel_size: (30, 30), height_scale: 1200, directions: 16,
+               edge: Clamp, max_distance: 900, ao: true{tiles}),"#
+        )
+    };
+    let jobs = format!("{} {}", job("whole", ""), job("dem", ", tile: 128, levels: 16"));
+    std::fs::write(dir.join("pipeline.ron"), format!(r#"(output: "bundle", jobs: [{jobs}])"#)).unwrap();
+    hikage_bake::build::BuildScript::new(dir.join("pipeline.ron")).into_pipeline_output().run().unwrap();
+    dir
+}
+
+/// How soon a `StreamedTerrain` draws: seconds from the app's start (before its plugins are
+/// built) to the first tile drawn and to level 0 under the camera, against the bundle's own load
+/// (every untiled asset read and checked) in the same run; then tiles per second while the
+/// camera hovers with room for all it wants. Best of `RUNS`.
+fn stream_arrival() {
+    use hikage_bevy::{StreamOptions, StreamedTerrain, TerrainStreamStats};
+    let dir = stream_bundle();
+    let profile = if cfg!(debug_assertions) { "dev" } else { "release" };
+    let (mut best, mut best_rate) = ([f64::INFINITY; 5], 0.0f64);
+    for _ in 0..RUNS {
+        let start = Instant::now();
+        let mut app = Headless::new(&dir, |app| {
+            app.add_plugins(HikagePlugin);
+        });
+        let built = start.elapsed().as_secs_f64();
+        let target = app.target(VIEW.0, VIEW.1);
+        let world = app.world();
+        world.spawn((
+            DirectionalLight { illuminance: 6_000.0, shadow_maps_enabled: true, ..default() },
+            Transform::default().looking_to(Vec3::new(-1.0, -0.25, -0.5), Vec3::Y),
+        ));
+        world.spawn((
+            Camera3d::default(),
+            bevy::camera::RenderTarget::from(target),
+            Projection::Perspective(PerspectiveProjection { far: 100_000.0, ..default() }),
+            Transform::from_xyz(9_000.0, 900.0, 9_000.0).looking_at(Vec3::new(15_000.0, 0.0, 15_000.0), Vec3::Y),
+        ));
+        let bundle: Handle<HikageBundle> = world.resource::<AssetServer>().load("bundle/bundle.ron");
+        let options = StreamOptions { resident_bytes: 1 << 30, ..StreamOptions::default() };
+        let terrain = world.spawn(StreamedTerrain::new(bundle.clone(), "dem").with_options(options)).id();
+        let (mut first, mut level0, mut loaded, mut settled) = (None, None, None, None);
+        let (mut tiles, mut first_frame) = (0usize, None);
+        while settled.is_none() && start.elapsed().as_secs() < 600 {
+            app.update();
+            let now = start.elapsed().as_secs_f64();
+            first_frame.get_or_insert(now);
+            let world = app.world();
+            let stats = world.get::<TerrainStreamStats>(terrain).map(|s| s.0).unwrap_or_default();
+            if stats.drawn > 0 && first.is_none() {
+                first = Some(now);
+            }
+            if stats.drawn > 0 && stats.finest_drawn == 0 && level0.is_none() {
+                level0 = Some(now);
+            }
+            if loaded.is_none() && world.resource::<AssetServer>().is_loaded_with_dependencies(&bundle) {
+                loaded = Some(now);
+            }
+            tiles = stats.resident_tiles;
+            if stats.drawn > 0 && stats.missing == 0 && loaded.is_some() {
+                settled = Some(now);
+            }
+        }
+        let (Some(first), Some(level0), Some(settled)) = (first, level0, settled) else {
+            panic!("the stream did not settle in 600 s")
+        };
+        let run = [built, first_frame.unwrap_or(f64::INFINITY), first, level0, loaded.unwrap_or(f64::INFINITY)];
+        for (b, run) in best.iter_mut().zip(run) {
+            *b = b.min(run);
+        }
+        best_rate = best_rate.max(tiles as f64 / (settled - first).max(1e-3));
+    }
+    println!(
+        "StreamedTerrain arrival ({profile} build, 1024² in 128² tiles + the map whole, {}×{}, best of {RUNS})",
+        VIEW.0, VIEW.1
+    );
+    println!("| from the app's start | seconds |");
+    println!("|---|---|");
+    println!("| the app built (Bevy's plugins and the render device) | {:.2} |", best[0]);
+    println!("| its first frame done | {:.2} |", best[1]);
+    println!("| first tile drawn | {:.2} |", best[2]);
+    println!("| level 0 under the camera | {:.2} |", best[3]);
+    println!("| the bundle's own load (its untiled assets read and checked) | {:.2} |", best[4]);
+    println!("| tiles per second, hovering with room for all | {best_rate:.1} |");
 }

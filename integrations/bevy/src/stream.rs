@@ -1,6 +1,6 @@
 //! Terrain of any size: [`StreamedTerrain`] draws a map baked in tiles and levels of detail
 //! from the tiles near the camera and coarser ones farther out, each tile read through Bevy's
-//! asset source on its IO task pool and added within a byte budget a frame. The choice of
+//! asset source on its async compute task pool and added within a byte budget a frame. The choice of
 //! tiles is hikage-runtime's `TerrainStream`'s ([`TileLayout::plan`]); each tile is drawn with
 //! the [`TerrainMaterial`] of [`crate::HorizonTerrain`].
 
@@ -18,7 +18,7 @@ use bevy_image::Image;
 use bevy_light::NotShadowCaster;
 use bevy_mesh::{Mesh, Mesh3d};
 use bevy_pbr::{ExtendedMaterial, MeshMaterial3d, StandardMaterial};
-use bevy_tasks::{IoTaskPool, Task};
+use bevy_tasks::{AsyncComputeTaskPool, Task};
 use bevy_transform::components::{GlobalTransform, Transform};
 use hikage_bundle::{Asset as Entry, Limits, Manifest, TextureData};
 use hikage_runtime::horizon::{
@@ -30,7 +30,7 @@ use crate::diagnostics::{Check, NamesBundle, Problems, SunShadowed};
 use crate::terrain::{TerrainExtension, TerrainMaterial, TerrainUniform};
 use crate::{HikageBundle, RegisteredLoader};
 
-/// Tiles being read at once at most: enough to keep the IO pool busy, few enough that a camera
+/// Tiles being read at once at most: enough to keep the task pool busy, few enough that a camera
 /// turning round does not leave a long queue of tiles no longer wanted.
 const MAX_PENDING: usize = 8;
 
@@ -44,7 +44,8 @@ const MAX_PENDING: usize = 8;
 ///   horizontally; a tile stays drawn until all four of its finer tiles are ready.
 /// - **Loading** never blocks a frame: the tiles' payloads are read through the bundle's Bevy
 ///   asset source (files, the web, an embedded source alike), checked (size, BLAKE3, contents)
-///   and made into meshes and images on Bevy's IO task pool, at most 8 at a time.
+///   and made into meshes and images on Bevy's async compute task pool (not the IO pool, where
+///   the bundle's own load runs), at most 8 at a time.
 /// - **Budgets:** at most [`StreamOptions::upload_bytes`] of new tiles a frame and
 ///   [`StreamOptions::resident_bytes`] resident, counting each tile's textures as the device
 ///   holds them and its mesh's vertices and indices. Tiles no longer wanted go first, least
@@ -267,7 +268,7 @@ pub(crate) fn stream_terrain(
         let options = &terrain.options;
         s.frame += 1;
         let plan = s.layout.plan((cam.x, cam.z), options, |k| s.resident.contains_key(&k));
-        // What the IO pool finished; what is no longer wanted is dropped (and its read stopped).
+        // What the task pool finished; what is no longer wanted is dropped (and its read stopped).
         let mut failure = None;
         let mut finished = Vec::new();
         for (key, task) in s.pending.iter_mut() {
@@ -352,11 +353,11 @@ pub(crate) fn stream_terrain(
 #[derive(Default)]
 pub(crate) struct EarlyManifests(HashMap<Entity, (AssetId<HikageBundle>, ManifestRead)>);
 
-/// A manifest being read on the IO task pool.
+/// A manifest being read on the async compute task pool.
 type ManifestRead = Task<Result<Manifest, String>>;
 
 impl EarlyManifests {
-    /// The manifest of `bundle` for `entity` once read; starts reading it (on the IO task pool,
+    /// The manifest of `bundle` for `entity` once read; starts reading it (on the async compute pool,
     /// checked as the loader checks it) the first time. `None` while it is read, or when it
     /// cannot be (the bundle's own load then says why).
     fn manifest(
@@ -373,7 +374,7 @@ impl EarlyManifests {
         let path = server.get_path(bundle.id())?;
         let (server, source, file) = (server.clone(), path.source().clone_owned(), path.path().to_path_buf());
         let name = path.to_string();
-        let task = IoTaskPool::get().spawn(async move {
+        let task = AsyncComputeTaskPool::get().spawn(async move {
             let source = server.get_source(source).map_err(|e| e.to_string())?;
             let read = async |file: PathBuf| -> Result<Vec<u8>, String> {
                 let mut reader = source.reader().read(&file).await.map_err(|e| format!("{}: {e}", file.display()))?;
@@ -474,7 +475,7 @@ fn request(manifest: &Manifest, layout: &TileLayout, key: TileKey) -> Result<Req
     })
 }
 
-/// Starts reading tile `r` on the IO task pool.
+/// Starts reading tile `r` on the async compute task pool.
 fn read_tile(
     server: &AssetServer,
     s: &Streaming,
@@ -484,7 +485,7 @@ fn read_tile(
 ) -> Task<Result<Loaded, String>> {
     let (server, source, dir) = (server.clone(), s.source.clone(), s.dir.clone());
     let skirt_texels = options.skirt_texels;
-    IoTaskPool::get().spawn(async move {
+    AsyncComputeTaskPool::get().spawn(async move {
         let read = async |entry: &Entry| -> Result<Vec<u8>, String> {
             let path = dir.join(&entry.file);
             let source = server.get_source(source.clone()).map_err(|e| e.to_string())?;
