@@ -577,19 +577,25 @@ pub fn heights_with_apron(
 mod tests {
     use super::*;
 
-    /// A 3-level layout of 4×4 tiles at level 0 without reading a bundle.
-    fn layout() -> TileLayout {
+    /// A square map of `levels` levels, `grid`² tiles of `tile`² texels of `texel` m at level
+    /// 0, without reading a bundle.
+    fn square(levels: u32, grid: u32, tile: u32, texel: f32) -> TileLayout {
         let level = |k: u32| TileLevel {
-            grid: (4 >> k, 4 >> k),
-            size: (256 / (1 << k) + 1, 256 / (1 << k) + 1),
-            texel: (10.0 * (1 << k) as f32, 10.0 * (1 << k) as f32),
+            grid: (grid >> k, grid >> k),
+            size: (grid * tile / (1 << k) + 1, grid * tile / (1 << k) + 1),
+            texel: (texel * (1 << k) as f32, texel * (1 << k) as f32),
         };
         TileLayout {
             map: "m".into(),
             parts: TileParts { height: "m.height".into(), horizon: "m.horizon".into(), ao: None },
-            levels: (0..3).map(level).collect(),
-            tile: 64,
+            levels: (0..levels).map(level).collect(),
+            tile,
         }
+    }
+
+    /// A 3-level layout of 4×4 tiles at level 0.
+    fn layout() -> TileLayout {
+        square(3, 4, 64, 10.0)
     }
 
     #[test]
@@ -654,17 +660,7 @@ mod tests {
     /// A 2048² map in 256² tiles (4 levels), every tile 8 MiB: the flight the streaming issue
     /// measured in Bevy.
     fn map_2048() -> TileLayout {
-        let level = |k: u32| TileLevel {
-            grid: (8 >> k, 8 >> k),
-            size: (2048 / (1 << k) + 1, 2048 / (1 << k) + 1),
-            texel: (30.0 * (1 << k) as f32, 30.0 * (1 << k) as f32),
-        };
-        TileLayout {
-            map: "m".into(),
-            parts: TileParts { height: "m.height".into(), horizon: "m.horizon".into(), ao: None },
-            levels: (0..4).map(level).collect(),
-            tile: 256,
-        }
+        square(4, 8, 256, 30.0)
     }
 
     /// What one flight under a resident budget did, frame by frame.
