@@ -99,3 +99,21 @@ fn an_added_asset_is_beyond_tolerance_and_the_same_bundle_is_not() {
     let text = stdout(&dir.run_expecting(&["diff", "new/bundle", "new/bundle"], 0));
     assert!(text.contains("0 changed, 0 beyond tolerance"), "{text}");
 }
+
+/// `--format json` prints one JSON object in every outcome: a bundle that cannot be opened and a
+/// bad tolerance are an `error` with `within_tolerance: false`, as a CI step that keeps the
+/// output wants, with the exit code of the failure.
+#[test]
+fn json_says_why_when_there_is_nothing_to_compare() {
+    let dir = two_bakes("diff_json_errors", "");
+    for (args, code, words) in [
+        (vec!["diff", "old/bundle", "missing", "--format", "json"], 3, "missing"),
+        (vec!["diff", "old/bundle", "new/bundle", "--format", "json", "--ao", "NaN"], 2, "finite"),
+    ] {
+        let out = dir.run_expecting(&args, code);
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {out:?}"));
+        assert_eq!(json["within_tolerance"], false);
+        let error = json["error"].as_str().unwrap();
+        assert!(error.contains(words), "{error}");
+    }
+}

@@ -102,8 +102,36 @@ impl DiffArgs {
     }
 }
 
-/// Compares the bundles and prints the report; a change beyond tolerance is exit 1.
+/// Compares the bundles and prints the report; a change beyond tolerance is exit 1. With
+/// `--format json` every outcome prints one JSON object: a bundle that cannot be opened or
+/// compared, or a bad tolerance, is `"error"` with `"within_tolerance": false`, so a CI step that
+/// keeps the output keeps why.
 pub fn run(args: &DiffArgs) -> Result<(), Failure> {
+    match compare(args) {
+        Ok(beyond) if beyond.is_empty() => Ok(()),
+        Ok(beyond) => Err(Failure {
+            code: 1,
+            error: anyhow::anyhow!("{} asset(s) changed beyond tolerance: {}", beyond.len(), beyond.join(", ")),
+        }),
+        Err(failure) => {
+            if args.format == OutputFormat::Json {
+                out!(
+                    "{}",
+                    serde_json::to_string_pretty(&serde_json::json!({
+                        "old": args.old,
+                        "new": args.new,
+                        "within_tolerance": false,
+                        "error": format!("{:#}", failure.error),
+                    }))?
+                );
+            }
+            Err(failure)
+        }
+    }
+}
+
+/// The comparison itself: prints the report and gives the ids beyond tolerance.
+fn compare(args: &DiffArgs) -> Result<Vec<String>, Failure> {
     let tolerances = args.tolerances()?;
     let open = |p: &PathBuf| Bundle::open(p).with_context(|| format!("opening {}", p.display()));
     let (old, new) = (open(&args.old)?, open(&args.new)?);
@@ -154,14 +182,7 @@ pub fn run(args: &DiffArgs) -> Result<(), Failure> {
             );
         }
     }
-    if beyond.is_empty() {
-        Ok(())
-    } else {
-        Err(Failure {
-            code: 1,
-            error: anyhow::anyhow!("{} asset(s) changed beyond tolerance: {}", beyond.len(), beyond.join(", ")),
-        })
-    }
+    Ok(beyond.into_iter().map(String::from).collect())
 }
 
 /// A figure with as many digits as it needs: counts whole, others to 4 significant digits.
