@@ -106,9 +106,10 @@ struct Resident {
 ///   (the four that replace a coarser tile), the sets nearest the camera in tile widths first
 ///   ([`TilePlan`]); only whole sets the budget holds are read, so a budget too small for the
 ///   next level holds the finest it can (see [`budget_warning`](TerrainStream::budget_warning)).
-///   To make room, tiles no longer wanted go first (least recently drawn first), then those of
-///   sets less wanted than the one coming in; never a tile that finer resident tiles hang from,
-///   never the coarsest level's, which stay so that there is always terrain to draw.
+///   To make room, tiles no longer wanted go first (least recently drawn first), then wanted
+///   ones past the sets the budget holds; never one of those sets, never a tile that finer
+///   resident tiles hang from, never the coarsest level's, which stay so that there is always
+///   terrain to draw.
 /// - **While a finer tile loads** its coarser tile is drawn: a tile is replaced only when all
 ///   four of its finer tiles are on the device.
 /// - **Cracks** between levels are hidden by skirts ([`StreamOptions::skirt_texels`]).

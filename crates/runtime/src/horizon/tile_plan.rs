@@ -195,9 +195,10 @@ impl TileLayout {
         // before its parent's.
         let reach = self.levels[0].texel.0.max(self.levels[0].texel.1) * self.tile as f32;
         let parent_of: HashMap<TileKey, Option<TileKey>> = walk.wanted.iter().copied().collect();
+        let remote: HashMap<TileKey, f32> = walk.wanted.iter().map(|&(k, _)| (k, self.remoteness(k, cam))).collect();
         let mut nearest: HashMap<Option<TileKey>, Place> = HashMap::new();
         for &(key, parent) in &walk.wanted {
-            let own = Place::new(key, self.remoteness(key, cam), self.distance(key, cam) <= reach);
+            let own = Place::new(key, remote[&key], self.distance(key, cam) <= reach);
             nearest.entry(parent).and_modify(|n| *n = (*n).min(own)).or_insert(own);
         }
         // Coarser sets first, so that a parent's set has its place before its children's.
@@ -212,12 +213,11 @@ impl TileLayout {
             order.insert(set, place);
         }
         // Within a set, nearest in tile widths first.
-        let own: HashMap<TileKey, Place> =
-            walk.wanted.iter().map(|&(k, _)| (k, Place::new(k, self.remoteness(k, cam), false))).collect();
+        let own = |k: &TileKey| Place::new(*k, remote[k], false);
         let mut ranked: Vec<(TileKey, Option<TileKey>)> = walk.wanted.clone();
         ranked.sort_by(|a, b| {
             let by_set = order[&a.1].cmp(&order[&b.1]).then(a.1.cmp(&b.1));
-            by_set.then(own[&a.0].cmp(&own[&b.0])).then(a.0.cmp(&b.0))
+            by_set.then(own(&a.0).cmp(&own(&b.0))).then(a.0.cmp(&b.0))
         });
         let wanted: Vec<TileKey> = ranked.iter().map(|&(k, _)| k).collect();
         let rank = wanted.iter().enumerate().map(|(i, &k)| (k, i)).collect();
@@ -442,7 +442,8 @@ impl Place {
 #[derive(Clone, Debug, PartialEq)]
 pub struct TilePlan {
     /// The tiles wanted, most wanted first: the coarsest level, then each tile's four finer
-    /// tiles together, the sets nearest in tile widths first (coarser at a tie), a set never
+    /// tiles together, the sets within a level-0 tile's width of the camera first (coarser
+    /// first), then the others nearest in tile widths first (coarser at a tie); a set never
     /// before its parent's.
     pub wanted: Vec<TileKey>,
     /// The resident tiles to draw: together they cover the map once.
