@@ -229,6 +229,10 @@ pub(crate) fn stream_terrain(
             // The loaded bundle's manifest; before it has loaded (its other assets read and
             // checked), the manifest read on its own, so tiles stream from the first frames.
             let loaded = bundles.get(&terrain.bundle).map(|b| Arc::new(b.manifest.clone()));
+            if loaded.is_some() {
+                // A read begun before the bundle loaded is no longer needed.
+                early.0.remove(&entity);
+            }
             let Some(manifest) = loaded.or_else(|| early.manifest(&server, &terrain.bundle, entity)) else { continue };
             if problems.get(Check::Build).is_some() && !terrain.is_changed() && !reloaded.contains(&terrain.bundle.id())
             {
@@ -375,18 +379,11 @@ impl EarlyManifests {
         let (server, source, file) = (server.clone(), path.source().clone_owned(), path.path().to_path_buf());
         let name = path.to_string();
         let task = AsyncComputeTaskPool::get().spawn(async move {
-            let source = server.get_source(source).map_err(|e| e.to_string())?;
-            let read = async |file: PathBuf| -> Result<Vec<u8>, String> {
-                let mut reader = source.reader().read(&file).await.map_err(|e| format!("{}: {e}", file.display()))?;
-                let mut bytes = Vec::new();
-                reader.read_to_end(&mut bytes).await.map_err(|e| format!("{}: {e}", file.display()))?;
-                Ok(bytes)
-            };
-            let (text, names) =
-                crate::loader::manifest_text(read(file.clone()).await?, &name).map_err(|e| e.to_string())?;
+            let (text, names) = crate::loader::manifest_text(read_source(&server, &source, &file).await?, &name)
+                .map_err(|e| e.to_string())?;
             let mut tables = std::collections::BTreeMap::new();
             for table in names {
-                let bytes = read(file.with_file_name(&table)).await?;
+                let bytes = read_source(&server, &source, &file.with_file_name(&table)).await?;
                 tables.insert(table, bytes);
             }
             crate::loader::parse_manifest(&text, &name, tables).map_err(|e| e.to_string())
@@ -394,6 +391,15 @@ impl EarlyManifests {
         self.0.insert(entity, (bundle.id(), task));
         None
     }
+}
+
+/// The bytes of the file at `path` in asset source `source`; or why not, naming the path.
+async fn read_source(server: &AssetServer, source: &AssetSourceId<'static>, path: &Path) -> Result<Vec<u8>, String> {
+    let source = server.get_source(source.clone()).map_err(|e| e.to_string())?;
+    let mut reader = source.reader().read(path).await.map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut bytes = Vec::new();
+    reader.read_to_end(&mut bytes).await.map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(bytes)
 }
 
 /// The stream of `terrain` over its bundle's `manifest`: the layout of its tiles, checked
@@ -488,10 +494,7 @@ fn read_tile(
     AsyncComputeTaskPool::get().spawn(async move {
         let read = async |entry: &Entry| -> Result<Vec<u8>, String> {
             let path = dir.join(&entry.file);
-            let source = server.get_source(source.clone()).map_err(|e| e.to_string())?;
-            let mut reader = source.reader().read(&path).await.map_err(|e| format!("{}: {e}", path.display()))?;
-            let mut bytes = Vec::new();
-            reader.read_to_end(&mut bytes).await.map_err(|e| format!("{}: {e}", path.display()))?;
+            let bytes = read_source(&server, &source, &path).await?;
             crate::loader::check(entry, &bytes, &Limits::default())
                 .map_err(|e| format!("{}: asset `{}`: {e}", path.display(), entry.id))?;
             Ok(bytes)
