@@ -1,10 +1,13 @@
 //! Far terrain shadows on what stands on the terrain: the sun visibility of a point above the
 //! ground from the baked horizons (`horizon_raised_sun_visible`) against an exact march from the
-//! raised point over the heights, written here, on a rough terrain the test generates.
+//! raised point over the heights (`hikage_devkit::brute_force`), on a rough terrain the test
+//! generates.
 
 use hikage_runtime::CpuBundle;
 use hikage_runtime::glam::{Vec2, Vec3};
 use hikage_runtime::horizon::reference::{HorizonMap, horizon_raised_sun_visible, horizon_sun_visible};
+
+use hikage_devkit::brute_force::raised_shadow_height;
 
 use crate::util::Dir;
 
@@ -12,33 +15,6 @@ use crate::util::Dir;
 const N: usize = 128;
 const TEXEL: f32 = 30.0;
 const REACH: f32 = 2400.0;
-
-/// The height above the ground at texel `(i, j)` above which a sun at `elevation` and `azimuth`
-/// (radians) is seen: quarter-texel steps over the bilinear surface through the texel centres,
-/// within `REACH` and the map.
-fn shadow_height(heights: &[f32], (i, j): (usize, usize), elevation: f32, azimuth: f32) -> f32 {
-    let at = |x: f32, y: f32| -> Option<f32> {
-        let (fx, fy) = (x / TEXEL - 0.5, y / TEXEL - 0.5);
-        if fx < 0.0 || fy < 0.0 || fx > (N - 1) as f32 || fy > (N - 1) as f32 {
-            return None;
-        }
-        let (x0, y0) = ((fx as usize).min(N - 2), (fy as usize).min(N - 2));
-        let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
-        let h = |x: usize, y: usize| heights[y * N + x];
-        let top = h(x0, y0) + (h(x0 + 1, y0) - h(x0, y0)) * tx;
-        let bottom = h(x0, y0 + 1) + (h(x0 + 1, y0 + 1) - h(x0, y0 + 1)) * tx;
-        Some(top + (bottom - top) * ty)
-    };
-    let (x, y) = ((i as f32 + 0.5) * TEXEL, (j as f32 + 0.5) * TEXEL);
-    let ground = heights[j * N + i];
-    let (mut t, mut above) = (0.25 * TEXEL, f32::NEG_INFINITY);
-    while t <= REACH {
-        let Some(h) = at(x + t * azimuth.cos(), y + t * azimuth.sin()) else { break };
-        above = above.max(h - ground - t * elevation.tan());
-        t += 0.25 * TEXEL;
-    }
-    above
-}
 
 /// Points 2 to 100 m up agree with the march as often as the ground's own test does, within a
 /// point, and a raised point is never much more often lit wrongly than the ground; the ground's
@@ -70,7 +46,7 @@ fn raised_points_agree_with_an_exact_march_as_the_ground_does() {
             let (e, a) = (e.to_radians(), a.to_radians());
             let sun = Vec3::new(e.cos() * a.cos(), e.cos() * a.sin(), e.sin());
             for &(i, j) in &points {
-                let lit = h > shadow_height(&heights, (i, j), e, a);
+                let lit = h > raised_shadow_height(&heights, (N, N), (TEXEL, TEXEL), (i, j), (e, a), REACH);
                 let uv = Vec2::new((i as f32 + 0.5) / N as f32, (j as f32 + 0.5) / N as f32);
                 let raised = horizon_raised_sun_visible(&map, uv, sun, texel, h, REACH, 0.0) > 0.5;
                 let on_ground = horizon_sun_visible(&map, uv, sun, texel, 0.0) > 0.5;

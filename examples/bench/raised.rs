@@ -11,10 +11,12 @@
 //!
 //! Points: texel centres drawn at random over the map, `h` above the ground there; suns at
 //! 2°, 5°, 10°, 20° and 30° from four azimuths that are none of the baked directions. The march
-//! steps a quarter texel over the bilinear surface (the surface the baker's rays cross) and
+//! (`brute_force::raised_shadow_height`) steps a quarter texel over the bilinear surface (the
+//! surface the baker's rays cross) and
 //! gives each point and sun the height above which the sun's centre is seen; a rule agrees when
 //! it says lit exactly where the point stands above that height.
 
+use hikage_devkit::brute_force;
 use hikage_runtime::CpuBundle;
 use hikage_runtime::glam::{Vec2, Vec3};
 use hikage_runtime::horizon::reference::{HorizonMap, horizon_raised_sun_visible};
@@ -40,39 +42,11 @@ struct Map {
 }
 
 impl Map {
-    /// World height on the bilinear surface through the texel centres, at map-frame `p`; `None`
-    /// past the centres of the edge texels (rays stop there on a clamped map).
-    fn height(&self, p: Vec2) -> Option<f32> {
-        let (w, h) = self.size;
-        let f = p / self.texel - Vec2::splat(0.5);
-        if f.x < 0.0 || f.y < 0.0 || f.x > (w - 1) as f32 || f.y > (h - 1) as f32 {
-            return None;
-        }
-        let (x0, y0) = ((f.x.floor() as usize).min(w - 2), (f.y.floor() as usize).min(h - 2));
-        let (fx, fy) = (f.x - x0 as f32, f.y - y0 as f32);
-        let at = |x: usize, y: usize| self.heights[y * w + x];
-        let top = at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx;
-        let bottom = at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx;
-        Some(top * (1.0 - fy) + bottom * fy)
-    }
-
     /// The height above the ground at texel `(i, j)` above which the sun's centre at `elevation`
-    /// and `azimuth` (radians) is seen, by a march of quarter texels within the reach (negative
-    /// where the ground itself sees it).
-    fn shadow_height(&self, (i, j): (usize, usize), elevation: f32, azimuth: f32) -> f32 {
-        let start = (Vec2::new(i as f32, j as f32) + Vec2::splat(0.5)) * self.texel;
-        let ground = self.heights[j * self.size.0 + i];
-        let dir = Vec2::new(azimuth.cos(), azimuth.sin());
-        let step = 0.25 * self.texel.min_element();
-        let rise = elevation.tan();
-        let mut above = f32::NEG_INFINITY;
-        let mut t = step;
-        while t <= self.reach {
-            let Some(h) = self.height(start + dir * t) else { break };
-            above = above.max(h - ground - t * rise);
-            t += step;
-        }
-        above
+    /// and `azimuth` (radians) is seen, by the brute-force march within the reach.
+    fn shadow_height(&self, at: (usize, usize), elevation: f32, azimuth: f32) -> f32 {
+        let texel = (self.texel.x, self.texel.y);
+        brute_force::raised_shadow_height(&self.heights, self.size, texel, at, (elevation, azimuth), self.reach)
     }
 }
 

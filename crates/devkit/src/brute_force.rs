@@ -103,6 +103,44 @@ pub fn horizon(hf: &Heightfield, s: &HorizonParams, row: usize, col: usize, phi:
     (best, best_d)
 }
 
+/// The height above the ground at texel `(i, j)` of a `w`×`h` grid of world `heights` (texel
+/// centres at `((i + ½)·sx, (j + ½)·sy)`) above which a sun at `elevation` and `azimuth`
+/// (radians, from +u toward +v) is seen: quarter-texel steps over the bilinear surface through
+/// the texel centres, within `reach` and up to the edge texels' centres (a clamped map's rays
+/// stop there). Negative where the ground itself sees the sun. The reference of a raised
+/// point's sun visibility (`horizon_raised_sun_visible`): lit when it stands higher than this.
+pub fn raised_shadow_height(
+    heights: &[f32],
+    (w, h): (usize, usize),
+    (sx, sy): (f32, f32),
+    (i, j): (usize, usize),
+    (elevation, azimuth): (f32, f32),
+    reach: f32,
+) -> f32 {
+    let at = |x: f32, y: f32| -> Option<f32> {
+        let (fx, fy) = (x / sx - 0.5, y / sy - 0.5);
+        if fx < 0.0 || fy < 0.0 || fx > (w - 1) as f32 || fy > (h - 1) as f32 {
+            return None;
+        }
+        let (x0, y0) = ((fx as usize).min(w - 2), (fy as usize).min(h - 2));
+        let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
+        let z = |x: usize, y: usize| heights[y * w + x];
+        let top = z(x0, y0) + (z(x0 + 1, y0) - z(x0, y0)) * tx;
+        let bottom = z(x0, y0 + 1) + (z(x0 + 1, y0 + 1) - z(x0, y0 + 1)) * tx;
+        Some(top + (bottom - top) * ty)
+    };
+    let (x, y) = ((i as f32 + 0.5) * sx, (j as f32 + 0.5) * sy);
+    let ground = heights[j * w + i];
+    let step = 0.25 * sx.min(sy);
+    let (mut t, mut above) = (step, f32::NEG_INFINITY);
+    while t <= reach {
+        let Some(z) = at(x + t * azimuth.cos(), y + t * azimuth.sin()) else { break };
+        above = above.max(z - ground - t * elevation.tan());
+        t += step;
+    }
+    above
+}
+
 /// The relief baker's reference: the first-hit depth of the ray from texel (`i`, `j`) of a
 /// tiling heightfield along `dir` (`z` down, the relief `thickness` texels deep), by a march in steps of `1/steps_per_texel`
 /// texel from the texel centre, every step a height read, then the depth at the first step
