@@ -18,6 +18,7 @@ mod gpu_horizon;
 mod gpu_relief;
 mod gpu_skin;
 mod gpu_stream;
+mod gpu_sun_field;
 mod hostile;
 mod raised;
 mod shard;

@@ -105,40 +105,65 @@ pub fn horizon(hf: &Heightfield, s: &HorizonParams, row: usize, col: usize, phi:
 
 /// The height above the ground at texel `(i, j)` of a `w`×`h` grid of world `heights` (texel
 /// centres at `((i + ½)·sx, (j + ½)·sy)`) above which a sun at `elevation` and `azimuth`
-/// (radians, from +u toward +v) is seen: quarter-texel steps over the bilinear surface through
-/// the texel centres, within `reach` and up to the edge texels' centres (a clamped map's rays
-/// stop there). Negative where the ground itself sees the sun. The reference of a raised
-/// point's sun visibility (`horizon_raised_sun_visible`): lit when it stands higher than this.
+/// (radians, from +u toward +v) is seen ([`sun_shadow_height`] from the texel's centre, less its
+/// height). Negative where the ground itself sees the sun. The reference of a raised point's sun
+/// visibility (`horizon_raised_sun_visible`): lit when it stands higher than this.
 pub fn raised_shadow_height(
     heights: &[f32],
     (w, h): (usize, usize),
     (sx, sy): (f32, f32),
     (i, j): (usize, usize),
+    sun: (f32, f32),
+    reach: f32,
+) -> f32 {
+    let centre = ((i as f32 + 0.5) * sx, (j as f32 + 0.5) * sy);
+    sun_shadow_height(heights, (w, h), (sx, sy), centre, sun, reach) - heights[j * w + i]
+}
+
+/// The world height above which a sun at `elevation` and `azimuth` (radians, from +u toward +v)
+/// is seen from above map point `(x, y)` (world units along u and v) of a `w`×`h` grid of world
+/// `heights` (texel centres at `((i + ½)·sx, (j + ½)·sy)`): quarter-texel steps over the bilinear
+/// surface through the texel centres, within `reach` and up to the edge texels' centres (a
+/// clamped map's rays stop there). −∞ when no step is on the map. The reference of a receiver's
+/// sun visibility (`SunField`): lit when it stands higher than this.
+pub fn sun_shadow_height(
+    heights: &[f32],
+    (w, h): (usize, usize),
+    (sx, sy): (f32, f32),
+    (x, y): (f32, f32),
     (elevation, azimuth): (f32, f32),
     reach: f32,
 ) -> f32 {
-    let at = |x: f32, y: f32| -> Option<f32> {
-        let (fx, fy) = (x / sx - 0.5, y / sy - 0.5);
-        if fx < 0.0 || fy < 0.0 || fx > (w - 1) as f32 || fy > (h - 1) as f32 {
-            return None;
-        }
-        let (x0, y0) = ((fx as usize).min(w - 2), (fy as usize).min(h - 2));
-        let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
-        let z = |x: usize, y: usize| heights[y * w + x];
-        let top = z(x0, y0) + (z(x0 + 1, y0) - z(x0, y0)) * tx;
-        let bottom = z(x0, y0 + 1) + (z(x0 + 1, y0 + 1) - z(x0, y0 + 1)) * tx;
-        Some(top + (bottom - top) * ty)
-    };
-    let (x, y) = ((i as f32 + 0.5) * sx, (j as f32 + 0.5) * sy);
-    let ground = heights[j * w + i];
     let step = 0.25 * sx.min(sy);
     let (mut t, mut above) = (step, f32::NEG_INFINITY);
     while t <= reach {
-        let Some(z) = at(x + t * azimuth.cos(), y + t * azimuth.sin()) else { break };
-        above = above.max(z - ground - t * elevation.tan());
+        let Some(z) = bilinear_height(heights, (w, h), (sx, sy), (x + t * azimuth.cos(), y + t * azimuth.sin())) else {
+            break;
+        };
+        above = above.max(z - t * elevation.tan());
         t += step;
     }
     above
+}
+
+/// The height of the bilinear surface through the texel centres of a `w`×`h` grid of `heights`
+/// at map point `(x, y)`, or `None` past the edge texels' centres.
+pub fn bilinear_height(
+    heights: &[f32],
+    (w, h): (usize, usize),
+    (sx, sy): (f32, f32),
+    (x, y): (f32, f32),
+) -> Option<f32> {
+    let (fx, fy) = (x / sx - 0.5, y / sy - 0.5);
+    if !(fx >= 0.0 && fy >= 0.0 && fx <= (w - 1) as f32 && fy <= (h - 1) as f32) {
+        return None;
+    }
+    let (x0, y0) = ((fx as usize).min(w - 2), (fy as usize).min(h - 2));
+    let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
+    let z = |x: usize, y: usize| heights[y * w + x];
+    let top = z(x0, y0) + (z(x0 + 1, y0) - z(x0, y0)) * tx;
+    let bottom = z(x0, y0 + 1) + (z(x0 + 1, y0 + 1) - z(x0, y0 + 1)) * tx;
+    Some(top + (bottom - top) * ty)
 }
 
 /// The relief baker's reference: the first-hit depth of the ray from texel (`i`, `j`) of a

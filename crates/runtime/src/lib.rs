@@ -115,6 +115,7 @@ pub use wgpu;
 #[cfg(test)]
 mod wgsl_tests {
     use crate::hair::HairUniform;
+    use crate::horizon::sun_field::{COMMON_WGSL, FILL_WGSL, RECEIVER_WGSL, SunFieldPass, SunFieldUniform, WALK_WGSL};
     use crate::horizon::{HorizonEncoding, SurfaceUniform, TerrainUniform};
     use crate::relief::{ReliefMaterialUniform, ReliefUniform};
     use crate::scene::{SCENE_WGSL, SceneUniform};
@@ -130,6 +131,15 @@ mod wgsl_tests {
             ("hair", crate::hair::HAIR_WGSL.to_string()),
             ("hair skin", crate::hair::HAIR_SKIN_WGSL.to_string()),
             ("relief material", format!("{SCENE_WGSL}\n{relief}\n{}", include_str!("shaders/relief_material.wgsl"))),
+            ("sun field", format!("{COMMON_WGSL}\n{RECEIVER_WGSL}")),
+            (
+                "sun field fill",
+                format!(
+                    "{SCENE_WGSL}\n{horizon}\n{}\n{COMMON_WGSL}\n{FILL_WGSL}",
+                    include_str!("shaders/terrain.wgsl")
+                ),
+            ),
+            ("sun field walk", format!("{COMMON_WGSL}\n{WALK_WGSL}")),
         ]
     }
 
@@ -173,6 +183,13 @@ mod wgsl_tests {
                 "SurfaceUniform",
                 layout!(SurfaceUniform; scene, tile, texel_size, height_scale, height_offset, size, encoding),
             ),
+            (
+                "sun field",
+                "SunFieldUniform",
+                layout!(SunFieldUniform; to_map, levels, walk, slopes, map_size, side, count),
+            ),
+            ("sun field fill", "SunFieldPass", layout!(SunFieldPass; offset, first, level, edges)),
+            ("sun field walk", "SunFieldPass", layout!(SunFieldPass; offset, first, level, edges)),
             (
                 "relief",
                 "ReliefUniform",

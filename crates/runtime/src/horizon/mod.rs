@@ -20,6 +20,7 @@
 
 pub mod reference;
 mod stream;
+pub(crate) mod sun_field;
 mod surface;
 mod terrain;
 mod tile_plan;
@@ -27,6 +28,7 @@ mod tile_plan;
 use hikage_bundle::{EdgeMode, HorizonSettings, TextureFormat};
 
 pub use stream::{MAX_TILE_SIDE, StreamOptions, StreamStats, TerrainStream};
+pub use sun_field::{FieldTerrain, MAX_SUN_FIELD_LEVELS, SunField, SunFieldOptions, SunFieldSource, SunFieldStats};
 pub use surface::{SurfaceFrame, SurfaceShadows, SurfaceUniform};
 pub use terrain::{Sun, TerrainExtent, TerrainFrame, TerrainShadows, TerrainUniform};
 pub use tile_plan::{

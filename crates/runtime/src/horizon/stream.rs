@@ -6,11 +6,12 @@ use std::collections::{HashMap, HashSet, VecDeque};
 use std::path::Path;
 use std::sync::mpsc;
 
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec2, Vec3};
 use hikage_bundle::tiles::TileIndex;
 use hikage_bundle::{Asset, PayloadData, TextureData};
 
 use super::horizon_filterable;
+use super::sun_field::{FieldTerrain, FieldTile, SunFieldSource};
 use super::terrain::{TerrainBinding, TerrainExtent, TerrainFrame, terrain_layout, terrain_program};
 use super::tile_plan::{
     BudgetShortfall, TileKey, TileLayout, TileParts, TilePlan, apron_neighbours, heights_with_apron, tile_device_bytes,
@@ -154,6 +155,9 @@ pub struct TerrainStream {
     frame: u64,
     extent: TerrainExtent,
     shortfall: Option<BudgetShortfall>,
+    /// The bake's farthest horizon distance and azimuths (the coarsest level's, as every level's).
+    reach: f32,
+    directions: u32,
 }
 
 impl TerrainStream {
@@ -252,6 +256,8 @@ impl TerrainStream {
         });
         let level0 = &binder.tiles.levels[0];
         let extent = TerrainExtent::new(level0.size, level0.texel, heights);
+        let root = &resident.values().next().expect("at least one coarsest tile").binding;
+        let (reach, directions) = (root.reach, root.directions);
         Ok(TerrainStream {
             program: program.expect("at least one coarsest tile"),
             options,
@@ -266,6 +272,8 @@ impl TerrainStream {
             frame: 0,
             extent,
             shortfall,
+            reach,
+            directions,
         })
     }
 
@@ -409,6 +417,43 @@ impl TerrainStream {
                 }
                 None => return false,
             }
+        }
+    }
+}
+
+impl SunFieldSource for TerrainStream {
+    fn field_terrain(&self) -> FieldTerrain<'_> {
+        let tiles = &self.binder.tiles;
+        let level0 = &tiles.levels[0];
+        let pieces = self
+            .drawn
+            .iter()
+            .filter_map(|&key| {
+                let r = self.resident.get(&key)?;
+                let grid = tiles.levels[key.0 as usize].grid;
+                let statics = &r.binding.statics;
+                let edges = u32::from(key.1 == 0)
+                    | u32::from(key.2 == 0) << 1
+                    | u32::from(key.1 + 1 == grid.0) << 2
+                    | u32::from(key.2 + 1 == grid.1) << 3;
+                Some(FieldTile {
+                    group: &r.binding.bind_group,
+                    key,
+                    offset: Vec2::new(r.offset.0, r.offset.1),
+                    texel: Vec2::from(statics.texel_size),
+                    size: (statics.size[0], statics.size[1]),
+                    edges,
+                })
+            })
+            .collect();
+        let texel = Vec2::new(level0.texel.0, level0.texel.1);
+        FieldTerrain {
+            layout: &self.binder.layout,
+            map_size: texel * Vec2::new(level0.size.0 as f32, level0.size.1 as f32),
+            texel,
+            directions: self.directions,
+            reach: self.reach,
+            tiles: pieces,
         }
     }
 }

@@ -1,9 +1,10 @@
 //! [`TerrainShadows`]: a heightfield drawn as a grid mesh, lit by a sun whose disc sinks
 //! behind the baked horizons, with the baked ambient occlusion as sky visibility.
 
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec2, Vec3};
 use hikage_bundle::{AssetKind, HeightfieldSettings, HorizonSettings};
 
+use super::sun_field::{FieldTerrain, FieldTile, SunFieldSource};
 use super::{HORIZON_WGSL, HorizonEncoding, horizon_filterable, horizon_sampler};
 use crate::draw::DrawOptions;
 use crate::error::RuntimeError;
@@ -14,7 +15,7 @@ use crate::upload::{GpuBundle, GpuTexture};
 /// WGSL of the terrain: its uniform, bindings (at `@group(0)`, moved to the chosen group by
 /// [`TerrainShadows::wgsl`]), `terrain_sun_visibility`, `terrain_sky_visibility` and the
 /// vertex and fragment entry points.
-const TERRAIN_WGSL: &str = include_str!("../shaders/terrain.wgsl");
+pub(super) const TERRAIN_WGSL: &str = include_str!("../shaders/terrain.wgsl");
 
 /// A sun: where it is, how bright, and how large it looks.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -147,6 +148,8 @@ pub struct TerrainShadows {
     vertices: u32,
     extent: TerrainExtent,
     assets: Vec<String>,
+    reach: f32,
+    directions: u32,
 }
 
 /// Where a terrain lies in its own frame: what a game needs to place a camera over it. The
@@ -209,8 +212,8 @@ impl TerrainShadows {
         let layout = terrain_layout(device, filterable);
         let binding = TerrainBinding::new(device, queue, gpu, (horizon, ao), (0.0, 0), (&layout, filterable))?;
         let program = terrain_program(device, horizon, (layout, binding.bind_group.clone()), options)?;
-        let TerrainBinding { uniform, statics, vertices, extent, assets, .. } = binding;
-        Ok(TerrainShadows { program, uniform, statics, vertices, extent, assets })
+        let TerrainBinding { uniform, statics, vertices, extent, assets, reach, directions, .. } = binding;
+        Ok(TerrainShadows { program, uniform, statics, vertices, extent, assets, reach, directions })
     }
 
     /// Where the terrain lies in its frame: size, texel size, height range and box, for placing
@@ -258,6 +261,28 @@ impl TerrainShadows {
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>) {
         self.program.bind(pass);
         pass.draw(0..self.vertices, 0..1);
+    }
+}
+
+impl SunFieldSource for TerrainShadows {
+    fn field_terrain(&self) -> FieldTerrain<'_> {
+        let texel = Vec2::from(self.statics.texel_size);
+        let size = (self.statics.size[0], self.statics.size[1]);
+        FieldTerrain {
+            layout: &self.program.layout,
+            map_size: texel * Vec2::new(size.0 as f32, size.1 as f32),
+            texel,
+            directions: self.directions,
+            reach: self.reach,
+            tiles: vec![FieldTile {
+                group: &self.program.bind_group,
+                key: (0, 0, 0),
+                offset: Vec2::ZERO,
+                texel,
+                size,
+                edges: 15,
+            }],
+        }
     }
 }
 
@@ -313,6 +338,9 @@ pub(super) struct TerrainBinding {
     pub vertices: u32,
     pub extent: TerrainExtent,
     pub assets: Vec<String>,
+    /// The bake's farthest horizon distance (the map's diagonal when unbounded) and azimuths.
+    pub reach: f32,
+    pub directions: u32,
 }
 
 impl TerrainBinding {
@@ -377,7 +405,10 @@ impl TerrainBinding {
         let extent = TerrainExtent::new((w, h), settings.texel_size, (low, high));
         let mut assets = vec![horizon.to_string(), settings.heightfield.clone()];
         assets.extend(ao.map(|a| a.asset.id.clone()));
-        Ok(TerrainBinding { uniform, statics, bind_group, vertices, extent, assets })
+        let diagonal = (w as f32 * settings.texel_size.0).hypot(h as f32 * settings.texel_size.1);
+        let reach = settings.max_distance.unwrap_or(diagonal);
+        let directions = settings.directions;
+        Ok(TerrainBinding { uniform, statics, bind_group, vertices, extent, assets, reach, directions })
     }
 
     /// The uniform for `frame`: the sun taken into the terrain frame, with the constants.
