@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! cargo run --release --example bench              # every table
-//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load, size, tiles, pyramid, stream, raised, fourier, bc
+//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load, size, tiles, pyramid, stream, raised, field, fourier, bc
 //! cargo run --release --example bench -- scale     # tiled bakes: ~40 min, ~50 GiB of disk
 //! cargo run --release --example bench -- pyramid-scale   # a 16384² pyramid: ~20 min, ~8 GiB
 //! cargo run --release --example bench -- build-script   # clean builds of a game crate: ~15 min
@@ -15,6 +15,7 @@
 
 mod bc;
 mod build_script;
+mod field;
 mod fit;
 mod fourier;
 mod hair;
@@ -123,6 +124,9 @@ fn main() {
     }
     if wanted("raised") {
         raised::run();
+    }
+    if wanted("field") {
+        field::run();
     }
     if wanted("tiles") {
         tiles::run();
