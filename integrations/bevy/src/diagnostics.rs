@@ -46,11 +46,13 @@ pub(crate) enum Check {
     Tiles,
     /// A streamed terrain's resident budget, too small for level 0 under the camera.
     Budget,
+    /// The entity a receiver names (a terrain's receiver's terrain).
+    Names,
 }
 
 /// Every check's finding on one entity (required by each hikage component).
 #[derive(Component, Default, Debug)]
-pub(crate) struct Problems([Option<String>; 6]);
+pub(crate) struct Problems([Option<String>; 7]);
 
 impl Problems {
     /// Sets `check`'s finding, marking the component changed only when it differs.
@@ -84,6 +86,22 @@ pub(crate) trait SunShadowed: Component {
     /// Whether it uses the factor as it is now set up.
     fn shadowed_by_sun(&self) -> bool {
         true
+    }
+}
+
+/// A receiver: a component that shades its entity's own `Mesh3d`.
+pub(crate) trait ShadesOwnMesh: Component {
+    /// What it says on an entity without a `Mesh3d`.
+    const NO_MESH: &'static str;
+}
+
+/// Says on each `C` without a `Mesh3d` that there is nothing to shade.
+pub(crate) fn check_mesh<C: ShadesOwnMesh>(mut entities: Query<(Has<bevy_mesh::Mesh3d>, &mut Problems), With<C>>) {
+    for (has_mesh, mut problems) in &mut entities {
+        // Every frame: the message is made only when the finding changes.
+        if has_mesh == problems.get(Check::Mesh).is_some() {
+            Problems::set(&mut problems, Check::Mesh, (!has_mesh).then(|| C::NO_MESH.to_string()));
+        }
     }
 }
 

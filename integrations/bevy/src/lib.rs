@@ -11,6 +11,8 @@
 //!   around the camera;
 //! - [`ReliefSurface`]: relief mapping with self-shadowing on any mesh with tangents;
 //! - [`CurvedSurface`]: a bump map's horizon shadows corrected for a mesh's curvature;
+//! - [`TerrainReceiver`]: any mesh in the far shadow of a [`HorizonTerrain`], past Bevy's
+//!   cascades;
 //! - [`HairStrands`]: hair strips blended over the scene with deep opacity maps from the sun,
 //!   shadowing [`HairReceiver`] meshes;
 //! - [`FittedShadows`]: a directional light's shadow map fitted to the visible geometry.
@@ -48,6 +50,7 @@ mod grid;
 pub mod hair;
 pub mod light_fit;
 mod loader;
+pub mod receiver;
 pub mod relief;
 mod shaders;
 pub mod stream;
@@ -70,6 +73,7 @@ pub use hikage_bundle::{Asset as ManifestAsset, Manifest, Settings};
 pub use hikage_runtime::horizon::{StreamOptions, StreamStats};
 pub use light_fit::FittedShadows;
 pub use loader::{BundleLoadError, BundleLoader};
+pub use receiver::{TerrainReceiver, TerrainReceiverExtension, TerrainReceiverMaterial};
 pub use relief::{ReliefExtension, ReliefMaterial, ReliefSurface};
 pub use stream::{StreamedTerrain, TerrainStreamStats, TerrainTile};
 pub use terrain::{HorizonTerrain, TerrainExtension, TerrainMaterial};
@@ -86,6 +90,7 @@ impl Plugin for HikagePlugin {
             MaterialPlugin::<TerrainMaterial>::default(),
             MaterialPlugin::<ReliefMaterial>::default(),
             MaterialPlugin::<CurvedMaterial>::default(),
+            MaterialPlugin::<TerrainReceiverMaterial>::default(),
         ));
         shaders::register(app);
         hair::build(app);
@@ -99,6 +104,11 @@ impl Plugin for HikagePlugin {
                 (diagnostics::check_load::<HairStrands>, relief::check_mesh),
                 (stream::stream_terrain, diagnostics::check_load::<StreamedTerrain>),
                 diagnostics::check_sun::<StreamedTerrain>,
+                (
+                    receiver::attach,
+                    diagnostics::check_mesh::<TerrainReceiver>,
+                    diagnostics::check_sun::<TerrainReceiver>,
+                ),
             ),
         );
         app.add_systems(PostUpdate, diagnostics::publish);

@@ -13,6 +13,9 @@ pub(crate) const CURVED: &str = "embedded://hikage_bevy/shaders/curved.wesl";
 /// The relief material's fragment shader.
 pub(crate) const RELIEF: &str = "embedded://hikage_bevy/shaders/relief.wesl";
 
+/// The terrain receivers' fragment shader.
+pub(crate) const TERRAIN_RECEIVER: &str = "embedded://hikage_bevy/shaders/terrain_receiver.wesl";
+
 /// The hair receivers' fragment shader.
 pub(crate) const HAIR_RECEIVER: &str = "embedded://hikage_bevy/shaders/hair_receiver.wesl";
 
@@ -83,6 +86,7 @@ pub(crate) fn register(app: &mut App) {
     bevy_shader::load_shader_library!(app, "shaders/relief.wesl");
     bevy_shader::load_shader_library!(app, "shaders/curved.wesl");
     bevy_shader::load_shader_library!(app, "shaders/hair_receiver.wesl");
+    bevy_shader::load_shader_library!(app, "shaders/terrain_receiver.wesl");
     let mut shaders = app.world_mut().resource_mut::<Assets<Shader>>();
     let libraries = [
         ("horizon", hikage_runtime::horizon::HORIZON_WGSL.to_string()),

@@ -234,7 +234,7 @@ impl SunField {
                 })
         };
         let both = wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING;
-        let built = gpu::checked(device, "sun field", || {
+        gpu::checked(device, "sun field", || {
             let hops = texture("hikage sun field hops", wgpu::TextureFormat::Rgba32Float, both);
             let ground = texture("hikage sun field ground", wgpu::TextureFormat::R32Float, both);
             let thresholds = texture("hikage sun field", wgpu::TextureFormat::Rg32Float, both);
@@ -272,17 +272,7 @@ impl SunField {
                 ],
             });
             let fill_group = fill_group(device, &fill_layout, (&uniform, &passes), (&hops, &ground));
-            let walk_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("hikage sun field walk"),
-                layout: &walk_layout,
-                entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: pass_binding(&passes) },
-                    wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&hops) },
-                    wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&ground) },
-                    wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&thresholds) },
-                ],
-            });
+            let walk_group = walk_group(device, &walk_layout, (&uniform, &passes), [&hops, &ground, &thresholds]);
             let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("hikage sun field"),
                 layout: &layout,
@@ -317,12 +307,17 @@ impl SunField {
                 &format!("{COMMON_WGSL}\n{WALK_WGSL}"),
                 "sun_field_walk",
             );
-            (
+            SunField {
+                options,
+                wgsl: gpu::at_group(&format!("{COMMON_WGSL}\n{RECEIVER_WGSL}"), options.group),
+                texel,
+                directions: source.directions,
+                uniform,
+                passes,
+                pass_capacity: 64,
                 hops,
                 ground,
                 thresholds,
-                uniform,
-                passes,
                 fill_layout,
                 fill_group,
                 fill,
@@ -330,41 +325,8 @@ impl SunField {
                 walk,
                 layout,
                 bind_group,
-            )
-        })?;
-        let (
-            hops,
-            ground,
-            thresholds,
-            uniform,
-            passes,
-            fill_layout,
-            fill_group,
-            fill,
-            walk_group,
-            walk,
-            layout,
-            bind_group,
-        ) = built;
-        Ok(SunField {
-            options,
-            wgsl: gpu::at_group(&format!("{COMMON_WGSL}\n{RECEIVER_WGSL}"), options.group),
-            texel,
-            directions: source.directions,
-            uniform,
-            passes,
-            pass_capacity: 64,
-            hops,
-            ground,
-            thresholds,
-            fill_layout,
-            fill_group,
-            fill,
-            walk_group,
-            walk,
-            layout,
-            bind_group,
-            built: None,
+                built: None,
+            }
         })
     }
 
@@ -541,17 +503,8 @@ impl SunField {
         self.fill_group =
             fill_group(device, &self.fill_layout, (&self.uniform, &self.passes), (&self.hops, &self.ground));
         let walk_layout = self.walk.get_bind_group_layout(1);
-        self.walk_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("hikage sun field walk"),
-            layout: &walk_layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: self.uniform.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: pass_binding(&self.passes) },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&self.hops) },
-                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&self.ground) },
-                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&self.thresholds) },
-            ],
-        });
+        let views = [&self.hops, &self.ground, &self.thresholds];
+        self.walk_group = walk_group(device, &walk_layout, (&self.uniform, &self.passes), views);
     }
 }
 
@@ -614,6 +567,26 @@ fn fill_group(
 /// `entry` for the build passes alone.
 fn compute(entry: wgpu::BindGroupLayoutEntry) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry { visibility: wgpu::ShaderStages::COMPUTE, ..entry }
+}
+
+/// The walk pass's bind group: it reads `hops` and `ground` and writes `thresholds`.
+fn walk_group(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    (uniform, passes): (&wgpu::Buffer, &wgpu::Buffer),
+    [hops, ground, thresholds]: [&wgpu::TextureView; 3],
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("hikage sun field walk"),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: pass_binding(passes) },
+            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(hops) },
+            wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(ground) },
+            wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(thresholds) },
+        ],
+    })
 }
 
 /// The binding of a dispatch's parameters: a uniform at a dynamic offset.

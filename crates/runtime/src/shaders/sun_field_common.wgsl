@@ -22,6 +22,20 @@ struct SunFieldUniform {
     count: u32,
 }
 
+// One dispatch of a build pass: a block of one level's texels, against one tile (the fill) or
+// the whole level (the walk).
+struct SunFieldPass {
+    // The tile's frame in the map frame: where its texel (0, 0)'s lower corner lies.
+    offset: vec2<f32>,
+    // The first texel of the block.
+    first: vec2<u32>,
+    level: u32,
+    // The tile's sides on the map's edge (bits: 1 u = 0, 2 v = 0, 4 u last, 8 v last): it also
+    // answers for the points past them.
+    edges: u32,
+    _pad: vec2<u32>,
+}
+
 // The texel of level `level` that holds map-frame point `p` (u, v), or -1 outside the level.
 fn sun_field_texel(f: SunFieldUniform, level: u32, p: vec2<f32>) -> vec2<i32> {
     let l = f.levels[level];

@@ -3,19 +3,6 @@
 // holds it. Needs SCENE_WGSL, HORIZON_WGSL, terrain.wgsl (the tile, @group(0)) and
 // sun_field_common.wgsl before it.
 
-// One dispatch: a block of one level's texels against one tile.
-struct SunFieldPass {
-    // The tile's frame in the map frame: where its texel (0, 0)'s lower corner lies.
-    offset: vec2<f32>,
-    // The first texel of the block.
-    first: vec2<u32>,
-    level: u32,
-    // The tile's sides on the map's edge (bits: 1 u = 0, 2 v = 0, 4 u last, 8 v last): it also
-    // answers for the points past them.
-    edges: u32,
-    _pad: vec2<u32>,
-}
-
 @group(1) @binding(0) var<uniform> field: SunFieldUniform;
 @group(1) @binding(1) var<uniform> field_pass: SunFieldPass;
 @group(1) @binding(2) var field_hops: texture_storage_2d_array<rgba32float, write>;

@@ -3,14 +3,6 @@
 // cross tiles and levels where the terrain's own textures end. Needs sun_field_common.wgsl
 // before it.
 
-struct SunFieldPass {
-    offset: vec2<f32>,
-    first: vec2<u32>,
-    level: u32,
-    edges: u32,
-    _pad: vec2<u32>,
-}
-
 @group(1) @binding(0) var<uniform> field: SunFieldUniform;
 @group(1) @binding(1) var<uniform> field_pass: SunFieldPass;
 @group(1) @binding(2) var field_hops: texture_2d_array<f32>;

@@ -246,7 +246,7 @@ pub(crate) fn build(app: &mut App) {
             check_strips,
             check_skin,
             receiver::attach.after(give_maps),
-            receiver::check_mesh,
+            crate::diagnostics::check_mesh::<HairReceiver>,
             crate::diagnostics::check_sun::<HairReceiver>,
         ),
     );

@@ -5,7 +5,6 @@
 use bevy_asset::{Asset, Assets, Handle};
 use bevy_ecs::prelude::*;
 use bevy_image::Image;
-use bevy_mesh::Mesh3d;
 use bevy_pbr::{ExtendedMaterial, MaterialExtension, MeshMaterial3d, StandardMaterial};
 use bevy_reflect::Reflect;
 use bevy_render::render_resource::AsBindGroup;
@@ -13,7 +12,7 @@ use bevy_render::storage::ShaderBuffer;
 use bevy_shader::ShaderRef;
 
 use super::HairShadowMaps;
-use crate::diagnostics::{Check, Problems, SunShadowed};
+use crate::diagnostics::{Check, Problems, ShadesOwnMesh, SunShadowed};
 
 /// Bevy's `StandardMaterial` shadowed by a hair's deep opacity maps.
 pub type HairReceiverMaterial = ExtendedMaterial<StandardMaterial, HairReceiverExtension>;
@@ -118,15 +117,6 @@ pub(crate) fn attach(
 
 impl SunShadowed for HairReceiver {}
 
-/// Says on each receiver without a `Mesh3d` that there is nothing to shade.
-pub(crate) fn check_mesh(mut receivers: Query<(Has<Mesh3d>, &mut Problems), With<HairReceiver>>) {
-    for (has_mesh, mut problems) in &mut receivers {
-        // Every frame: the message is made only when the finding changes.
-        if has_mesh == problems.get(Check::Mesh).is_some() {
-            Problems::set(&mut problems, Check::Mesh, (!has_mesh).then(|| NO_MESH.to_string()));
-        }
-    }
+impl ShadesOwnMesh for HairReceiver {
+    const NO_MESH: &'static str = "a HairReceiver shades the entity's own mesh, and this entity has no Mesh3d";
 }
-
-/// What a [`HairReceiver`] without a `Mesh3d` says.
-const NO_MESH: &str = "a HairReceiver shades the entity's own mesh, and this entity has no Mesh3d";

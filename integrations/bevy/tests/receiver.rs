@@ -1,0 +1,175 @@
+//! A mesh in the terrain's far shadow (`TerrainReceiver`), rendered by Bevy on a GPU (lavapipe in
+//! CI): a sheet of water at a fixed height over the sample terrain, seen from above, against
+//! hikage-runtime's CPU reference of the same test (`horizon_raised_sun_visible`) and against an
+//! exact march from each pixel's world point; and the receivers' mistakes said on the entity.
+
+#[path = "../examples/common/mod.rs"]
+mod common;
+
+use bevy::light::{NotShadowCaster, SunDisk};
+use bevy::prelude::*;
+use hikage_bevy::{
+    HikageBundle, HikageError, HorizonTerrain, StreamedTerrain, TerrainReceiver, TerrainReceiverMaterial,
+};
+use hikage_devkit::brute_force::{bilinear_height, sun_shadow_height};
+use hikage_runtime::CpuBundle;
+use hikage_runtime::glam;
+use hikage_runtime::horizon::reference::{HorizonMap, horizon_raised_sun_visible};
+
+use common::{MaskScene, bake, gpu_or_skip};
+
+const SIZE: u32 = 384;
+/// The sheet's height (m): above about half the sample terrain.
+const WATER: f32 = 700.0;
+
+/// The pixels of the sheet that stand above the ground are lit as the CPU reference of the
+/// shader's test says (≥ 99%; 99.61% measured) and agree with the exact march as often as that
+/// reference does, within half a point (97.0% measured, a 5° sun over valleys where the sheet
+/// lies close to its shadow's top). Bevy's cascades, 150 m from a camera 4 km up, leave these
+/// pixels to the terrain's shadow alone.
+#[test]
+fn a_receiver_is_shadowed_by_the_far_terrain_as_the_cpu_reference_says() {
+    if !gpu_or_skip("a_receiver_is_shadowed_by_the_far_terrain_as_the_cpu_reference_says") {
+        return;
+    }
+    let dir = bake(
+        "receiver",
+        r#"Horizon(id: "terrain", input: "data/terrain.png", texel_size: (80, 60), height_scale: 1500,
+               directions: 32, edge: Clamp)"#,
+    );
+    let (w, h, sx, sy) = (512usize, 512usize, 80.0f32, 60.0f32);
+    let (ex, ez) = (w as f32 * sx, h as f32 * sy);
+    // The sun low, between +x (u) and +z (v).
+    let (elevation, azimuth) = (5f32.to_radians(), 30f32.to_radians());
+    let sun = Vec3::new(elevation.cos() * azimuth.cos(), elevation.sin(), elevation.cos() * azimuth.sin());
+    let MaskScene { mut app, target, .. } = MaskScene::new(
+        &dir,
+        SIZE,
+        sun,
+        Transform::from_xyz(ex / 2.0, 4000.0, ez / 2.0).looking_at(Vec3::new(ex / 2.0, 0.0, ez / 2.0), Vec3::NEG_Z),
+        MaskScene::orthographic(ex, ez, 10_000.0),
+    );
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    // The terrain shadows the sheet but is not drawn over it.
+    let terrain =
+        app.world().spawn((HorizonTerrain::new(bundle, "terrain.horizon"), NotShadowCaster, Visibility::Hidden)).id();
+    let sheet = app.world().resource_mut::<Assets<Mesh>>().add(Plane3d::default().mesh().size(ex, ez));
+    let water = app
+        .world()
+        .spawn((
+            Mesh3d(sheet),
+            Transform::from_xyz(ex / 2.0, WATER, ez / 2.0),
+            NotShadowCaster,
+            TerrainReceiver::new(terrain),
+        ))
+        .id();
+    let built = app.update_until(600, |w| w.get::<MeshMaterial3d<TerrainReceiverMaterial>>(water).is_some());
+    assert!(built, "the receiver was not built: {:?}", app.world().get::<HikageError>(water));
+    let shadowed = app.capture_settled(&target);
+    let material = app.world().get::<MeshMaterial3d<TerrainReceiverMaterial>>(water).unwrap().0.clone();
+    app.world()
+        .resource_mut::<Assets<TerrainReceiverMaterial>>()
+        .get_mut(&material)
+        .unwrap()
+        .extension
+        .uniform
+        .shadow = 0;
+    let open = app.capture_settled(&target);
+
+    let cpu = CpuBundle::read_prefix(&dir.join("bundle"), "terrain.").unwrap();
+    let asset = cpu.asset("terrain.horizon").unwrap();
+    let map = HorizonMap::new(asset.texture().unwrap(), asset.asset.settings.horizon().unwrap(), true).unwrap();
+    let heights = cpu.asset("terrain.height").unwrap().texture().unwrap().to_f32(0);
+    let settings = cpu.asset("terrain.height").unwrap().asset.settings.heightfield().unwrap().clone();
+    let heights: Vec<f32> = heights.iter().map(|v| settings.height_offset + settings.height_scale * v).collect();
+    let bump_sun = glam::Vec3::new(sun.x, sun.z, sun.y);
+    let radius = 0.5 * SunDisk::EARTH.angular_size;
+    let reach = (ex).hypot(ez);
+    let (mut checked, mut same, mut marched, mut lit, mut rule) = (0usize, 0usize, 0usize, 0usize, 0usize);
+    for row in 0..SIZE {
+        for col in 0..SIZE {
+            let k = (row * SIZE + col) as usize;
+            // The camera looks down with +z at the bottom of the image.
+            let (x, z) = ((col as f32 + 0.5) / SIZE as f32 * ex, (row as f32 + 0.5) / SIZE as f32 * ez);
+            let Some(ground) = bilinear_height(&heights, (w, h), (sx, sy), (x, z)) else { continue };
+            if WATER < ground + 1.0 || open[k][1] < 0.02 {
+                continue; // under the terrain: no water there in a game
+            }
+            let uv = glam::Vec2::new(x / ex, z / ez);
+            let above = WATER - ground;
+            let reference =
+                horizon_raised_sun_visible(&map, uv, bump_sun, glam::Vec2::new(sx, sy), above, reach, radius) >= 0.5;
+            let exact = WATER > sun_shadow_height(&heights, (w, h), (sx, sy), (x, z), (elevation, azimuth), reach);
+            let bevy = shadowed[k][1] >= 0.5 * open[k][1];
+            checked += 1;
+            lit += bevy as usize;
+            same += (reference == bevy) as usize;
+            marched += (exact == bevy) as usize;
+            rule += (exact == reference) as usize;
+        }
+    }
+    let share = |n: usize| n as f64 / checked as f64;
+    eprintln!(
+        "bevy receiver: {checked} pixels of water above the ground, {:.1}% lit; agrees with the CPU reference on \
+         {:.2}%, with the exact march on {:.2}% (the CPU reference with the march: {:.2}%)",
+        100.0 * share(lit),
+        100.0 * share(same),
+        100.0 * share(marched),
+        100.0 * share(rule)
+    );
+    assert!(checked > 30_000, "{checked} pixels of water");
+    assert!((0.2..0.95).contains(&share(lit)), "a low sun casts long shadows on the water");
+    assert!(share(same) >= 0.99, "{:.2}% agree with the CPU reference", 100.0 * share(same));
+    assert!(share(marched) >= share(rule) - 0.005, "{:.2}% agree with the march", 100.0 * share(marched));
+    assert!(share(rule) >= 0.96, "the rule agrees with the march on {:.2}%", 100.0 * share(rule));
+}
+
+/// A receiver says what is wrong: a terrain entity that is none, a streamed terrain, no mesh.
+#[test]
+fn receiver_mistakes_are_said_on_the_entity() {
+    if !gpu_or_skip("receiver_mistakes_are_said_on_the_entity") {
+        return;
+    }
+    let dir = bake(
+        "receiver_mistakes",
+        r#"Horizon(id: "t", input: "data/cylinders.png", texel_size: (1, 1), height_scale: 4, directions: 8, edge: Clamp)"#,
+    );
+    let MaskScene { mut app, .. } = MaskScene::new(
+        &dir,
+        32,
+        Vec3::Y,
+        Transform::from_xyz(64.0, 200.0, 64.0).looking_at(Vec3::new(64.0, 0.0, 64.0), Vec3::NEG_Z),
+        default(),
+    );
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    let nothing = app.world().spawn(Transform::default()).id();
+    let streamed = app.world().spawn(StreamedTerrain::new(bundle.clone(), "t")).id();
+    let terrain = app.world().spawn(HorizonTerrain::new(bundle, "t.horizon")).id();
+    let plane = app.world().resource_mut::<Assets<Mesh>>().add(Plane3d::default().mesh().size(2.0, 2.0));
+    let to_nothing = app.world().spawn((Mesh3d(plane.clone()), TerrainReceiver::new(nothing))).id();
+    let to_stream = app.world().spawn((Mesh3d(plane.clone()), TerrainReceiver::new(streamed))).id();
+    let no_mesh = app.world().spawn(TerrainReceiver::new(terrain)).id();
+    let error = |app: &mut common::Headless, e: Entity| app.world().get::<HikageError>(e).map(|e| e.0.clone());
+    let said =
+        app.update_until(600, |w| [to_nothing, to_stream, no_mesh].iter().all(|&e| w.get::<HikageError>(e).is_some()));
+    assert!(said, "{:?} {:?} {:?}", error(&mut app, to_nothing), error(&mut app, to_stream), error(&mut app, no_mesh));
+    assert!(error(&mut app, to_nothing).is_some_and(|m| m.contains("has no HorizonTerrain")));
+    assert!(error(&mut app, to_stream).is_some_and(|m| m.contains("is a StreamedTerrain")));
+    assert!(error(&mut app, no_mesh).is_some_and(|m| m.contains("no Mesh3d")));
+    // Fixed: the receivers name the terrain, the last gets a mesh.
+    app.world().get_mut::<TerrainReceiver>(to_nothing).unwrap().terrain = terrain;
+    app.world().get_mut::<TerrainReceiver>(to_stream).unwrap().terrain = terrain;
+    app.world().entity_mut(no_mesh).insert(Mesh3d(plane));
+    let cleared = app.update_until(200, |w| {
+        [to_nothing, to_stream, no_mesh].iter().all(|&e| {
+            w.get::<HikageError>(e).is_none() && w.get::<MeshMaterial3d<TerrainReceiverMaterial>>(e).is_some()
+        })
+    });
+    assert!(
+        cleared,
+        "{:?} {:?} {:?}",
+        error(&mut app, to_nothing),
+        error(&mut app, to_stream),
+        error(&mut app, no_mesh)
+    );
+}
