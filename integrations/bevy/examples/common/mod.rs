@@ -98,6 +98,13 @@ pub fn run_in(name: &str, root: &Path, build: impl FnOnce(&mut App)) {
         || Path::new(env!("CARGO_MANIFEST_DIR")).join("target").join(format!("{name}.png")),
         PathBuf::from,
     );
+    render(name, root, &out, build);
+    println!("{name}: no display; rendered headless to {}", out.display());
+}
+
+/// Renders the scene `build` adds (assets under `root`) headless, once everything in it has
+/// loaded, into a 960×540 PNG at `out`.
+pub fn render(name: &str, root: &Path, out: &Path, build: impl FnOnce(&mut App)) {
     let mut app = Headless::new(root, |app| {
         app.add_plugins(hikage_bevy::HikagePlugin);
         build(app);
@@ -115,8 +122,7 @@ pub fn run_in(name: &str, root: &Path, build: impl FnOnce(&mut App)) {
     app.update_until(3, |_| false);
     let pixels = app.capture_bytes(&target);
     let bytes: Vec<u8> = pixels.iter().flat_map(|p| [p[0], p[1], p[2]]).collect();
-    image::save_buffer(&out, &bytes, width, height, image::ColorType::Rgb8).unwrap();
-    println!("{name}: no display; rendered headless to {}", out.display());
+    image::save_buffer(out, &bytes, width, height, image::ColorType::Rgb8).unwrap();
 }
 
 /// Frames until every streamed terrain draws all the tiles its camera wants, or holds as many
@@ -144,7 +150,15 @@ fn pending(world: &mut World) -> usize {
     let receivers = world
         .query_filtered::<(), (With<HairReceiver>, Without<MeshMaterial3d<HairReceiverMaterial>>, Without<HikageError>)>()
         .iter(world)
-        .count();
+        .count()
+        + world
+            .query_filtered::<(), (
+                With<TerrainReceiver>,
+                Without<MeshMaterial3d<TerrainReceiverMaterial>>,
+                Without<HikageError>,
+            )>()
+            .iter(world)
+            .count();
     let server = world.resource::<AssetServer>().clone();
     let hairs =
         world.query::<&HairStrands>().iter(world).filter(|h| !server.is_loaded_with_dependencies(&h.bundle)).count();
