@@ -173,3 +173,141 @@ fn receiver_mistakes_are_said_on_the_entity() {
         error(&mut app, no_mesh)
     );
 }
+
+/// Bevy's cascades and the terrain's far shadow together, on a sheet of water over a small
+/// terrain (1 km, 40 m of relief) seen from a camera 25 m above it, across the end of the
+/// cascades (150 m): near the camera the terrain's shadow is drawn by both and not darkened
+/// twice (the darker of the two, not their product); past the end the far shadow alone, with the
+/// same agreement with the exact march on both sides of it (no seam).
+#[test]
+fn a_receiver_composes_with_the_cascades_without_a_seam() {
+    if !gpu_or_skip("a_receiver_composes_with_the_cascades_without_a_seam") {
+        return;
+    }
+    let dir = bake(
+        "receiver_cascades",
+        r#"Horizon(id: "small", input: "data/terrain.png", texel_size: (2, 1.5), height_scale: 40,
+               directions: 32, edge: Clamp)"#,
+    );
+    let (w, h, sx, sy) = (512usize, 512usize, 2.0f32, 1.5f32);
+    let (ex, ez) = (w as f32 * sx, h as f32 * sy);
+    let water = 22.0;
+    let (elevation, azimuth) = (6f32.to_radians(), 100f32.to_radians());
+    let sun = Vec3::new(elevation.cos() * azimuth.cos(), elevation.sin(), elevation.cos() * azimuth.sin());
+    let eye = Vec3::new(60.0, water + 25.0, 0.5 * ez);
+    let MaskScene { mut app, target, light } = MaskScene::new(
+        &dir,
+        SIZE,
+        sun,
+        Transform::from_translation(eye).looking_at(Vec3::new(700.0, water - 40.0, 0.5 * ez), Vec3::Y),
+        Projection::default(),
+    );
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    let terrain = app.world().spawn(HorizonTerrain::new(bundle, "small.horizon")).id();
+    let sheet = app.world().resource_mut::<Assets<Mesh>>().add(Plane3d::default().mesh().size(ex, ez));
+    let blue = StandardMaterial {
+        base_color: Color::srgb(0.1, 0.2, 0.9),
+        perceptual_roughness: 1.0,
+        reflectance: 0.0,
+        ..default()
+    };
+    let receiver = app
+        .world()
+        .spawn((
+            Mesh3d(sheet),
+            Transform::from_xyz(ex / 2.0, water, ez / 2.0),
+            NotShadowCaster,
+            TerrainReceiver::new(terrain).with_base(blue),
+        ))
+        .id();
+    let built = app.update_until(600, |w| w.get::<MeshMaterial3d<TerrainReceiverMaterial>>(receiver).is_some());
+    assert!(built, "the receiver was not built: {:?}", app.world().get::<HikageError>(receiver));
+    // Both shadows; the cascades' alone; none (the water's full light).
+    let both = app.capture_settled(&target);
+    let material = app.world().get::<MeshMaterial3d<TerrainReceiverMaterial>>(receiver).unwrap().0.clone();
+    app.world()
+        .resource_mut::<Assets<TerrainReceiverMaterial>>()
+        .get_mut(&material)
+        .unwrap()
+        .extension
+        .uniform
+        .shadow = 0;
+    let cascades = app.capture_settled(&target);
+    app.world().get_mut::<DirectionalLight>(light).unwrap().shadow_maps_enabled = false;
+    let open = app.capture_settled(&target);
+
+    let cpu = CpuBundle::read_prefix(&dir.join("bundle"), "small.").unwrap();
+    let asset = cpu.asset("small.horizon").unwrap();
+    let map = HorizonMap::new(asset.texture().unwrap(), asset.asset.settings.horizon().unwrap(), true).unwrap();
+    let settings = cpu.asset("small.height").unwrap().asset.settings.heightfield().unwrap().clone();
+    let heights: Vec<f32> = cpu
+        .asset("small.height")
+        .unwrap()
+        .texture()
+        .unwrap()
+        .to_f32(0)
+        .iter()
+        .map(|v| settings.height_offset + settings.height_scale * v)
+        .collect();
+    let bump_sun = glam::Vec3::new(sun.x, sun.z, sun.y);
+    let radius = 0.5 * SunDisk::EARTH.angular_size;
+    let reach = ex.hypot(ez);
+    let forward = (Vec3::new(700.0, water - 40.0, 0.5 * ez) - eye).normalize();
+    // Per band of distance from the camera: pixels, agreeing with the march, |drawn − the darker
+    // of the two|, pixels the product would darken by more than 0.1 past the darker.
+    let bands = [(30.0, 100.0), (100.0, 150.0), (150.0, 250.0), (250.0, 700.0)];
+    let mut tally = [(0usize, 0usize, 0.0f64, 0usize, 0usize); 4];
+    for row in 0..SIZE {
+        for col in 0..SIZE {
+            let k = (row * SIZE + col) as usize;
+            if open[k][2] < 2.0 * open[k][0] + 0.02 {
+                continue; // not the water: the terrain, or the sky
+            }
+            let ray = app.pixel_ray(col, row);
+            let t = (water - ray.origin.y) / ray.direction.y;
+            if t <= 0.0 {
+                continue;
+            }
+            let p = ray.origin + *ray.direction * t;
+            let Some(ground) = bilinear_height(&heights, (w, h), (sx, sy), (p.x, p.z)) else { continue };
+            let depth = (p - eye).dot(forward);
+            let Some(band) = bands.iter().position(|&(a, b)| (a..b).contains(&depth)) else { continue };
+            let uv = glam::Vec2::new(p.x / ex, p.z / ez);
+            let far =
+                horizon_raised_sun_visible(&map, uv, bump_sun, glam::Vec2::new(sx, sy), water - ground, reach, radius);
+            let lit = water > sun_shadow_height(&heights, (w, h), (sx, sy), (p.x, p.z), (elevation, azimuth), reach);
+            let (drawn, cascade) = (both[k][2] / open[k][2], (cascades[k][2] / open[k][2]).min(1.0));
+            let t = &mut tally[band];
+            t.0 += 1;
+            t.1 += usize::from((drawn > 0.5) == lit);
+            t.2 += f64::from((drawn - cascade.min(far)).abs());
+            t.3 += usize::from(cascade * far < cascade.min(far) - 0.1);
+            t.4 += usize::from(drawn <= 0.5);
+        }
+    }
+    for (&(a, b), &(n, agree, off, product, dark)) in bands.iter().zip(&tally) {
+        eprintln!(
+            "{a}–{b} m: {n} pixels of water, {:.1}% in shadow; {:.2}% agree with the march; drawn within {:.4} of the \
+             darker shadow on average; the product would darken {:.2}% by more than 0.1",
+            100.0 * dark as f64 / n.max(1) as f64,
+            100.0 * agree as f64 / n.max(1) as f64,
+            off / n.max(1) as f64,
+            100.0 * product as f64 / n.max(1) as f64
+        );
+    }
+    let share = |i: usize| tally[i].1 as f64 / tally[i].0.max(1) as f64;
+    assert!(
+        tally.iter().all(|t| t.0 > 500 && t.4 * 20 > t.0),
+        "every band has water, a twentieth in shadow: {tally:?}"
+    );
+    assert!(
+        (share(1) - share(2)).abs() <= 0.02,
+        "no seam at the cascades' end: {} inside, {} past",
+        share(1),
+        share(2)
+    );
+    assert!(tally.iter().all(|t| t.2 / (t.0 as f64) < 0.05), "{tally:?}");
+    for (i, band) in bands.iter().enumerate() {
+        assert!(share(i) >= 0.95, "{band:?}: {}", share(i));
+    }
+}
