@@ -248,7 +248,7 @@ fn grids_of_depths_no_reader_takes_are_refused_by_name() {
 
 #[test]
 fn signed_bytes_and_nan_voids_read_as_documented() {
-    let i8s: Vec<u8> = (0..16).map(|i: i8| (i * 9 - 70) as u8).collect();
+    let i8s: Vec<u8> = (0..16).map(|i: i16| (i * 9 - 70) as i8 as u8).collect();
     let mut floats: Vec<f32> = (0..16).map(|i| i as f32 * 0.5 + 10.0).collect();
     floats[5] = f32::NAN;
     floats[9] = f32::NAN;
@@ -268,7 +268,7 @@ fn signed_bytes_and_nan_voids_read_as_documented() {
         dir.run(&["export", "bundle", id, "--raw", "--out", "x.f32"]);
         dir.read("x.f32").chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect()
     };
-    assert_eq!(exported("i8"), (0..16).map(|i: i8| (i * 9 - 70) as f32).collect::<Vec<_>>());
+    assert_eq!(exported("i8"), (0..16).map(|i: i16| (i * 9 - 70) as i8 as f32).collect::<Vec<_>>());
     // NaN is GDAL's usual float no-data: the voids take the lowest valid height (10).
     let expected: Vec<f32> = floats.iter().map(|v| if v.is_nan() { 10.0 } else { *v }).collect();
     assert_eq!(exported("nan"), expected);

@@ -365,3 +365,88 @@ fn each_level_of_a_pyramid_is_the_reduced_maps_whole_bake() {
     let err = stderr(&dir.run_expecting(&["bake"], 1));
     assert!(err.contains("lod") && err.contains("has no level 2") && err.contains("multiples of 4"), "{err}");
 }
+
+/// The table and `bundle.ron` of `dir/b` with the table's records changed by `edit` (and the
+/// manifest's hash, name and length of the table kept in step), as a hostile writer would.
+fn edit_records(dir: &Dir, edit: impl FnOnce(&mut Vec<[u8; 100]>)) {
+    let text = String::from_utf8(dir.read("b/bundle.ron")).unwrap();
+    let set = Manifest::tile_sets(&text, "b/bundle.ron".as_ref()).unwrap().remove(0);
+    let bytes = dir.read(&format!("b/{}", set.table));
+    let mut records: Vec<[u8; 100]> = bytes[16..].chunks_exact(100).map(|c| c.try_into().unwrap()).collect();
+    edit(&mut records);
+    let mut table = bytes[..16].to_vec();
+    records.iter().for_each(|r| table.extend_from_slice(r));
+    let hash = blake3::hash(&table).to_hex().to_string();
+    let name = set.table.replace(&set.blake3, &hash);
+    std::fs::remove_file(dir.path(&format!("b/{}", set.table))).unwrap();
+    dir.write(&format!("b/{name}"), &table);
+    dir.write("b/bundle.ron", text.replace(&set.blake3, &hash));
+}
+
+/// What the tile reader relies on is what opening and validating a bundle check, both ways
+/// (the full manifest and the streaming index): records in id order (a reader's binary search
+/// would miss tiles), each on its level's grid, each naming assets that exist; and tables are
+/// never read through a symbolic link.
+#[test]
+fn tile_tables_a_reader_would_misread_are_refused() {
+    let refused = |dir: &Dir, want: &str| {
+        for err in [Bundle::open(&dir.path("b")).unwrap_err(), TileIndex::open(&dir.path("b")).unwrap_err()] {
+            let err = err.to_string();
+            assert!(err.contains(want) && err.contains("tile-table"), "{want}: {err}");
+        }
+    };
+    let fresh = |name: &str| {
+        let dir = Dir::new(name);
+        let mut manifest = Manifest::new();
+        manifest.assets = pyramid("dem", 1024, 256, Parts::All, 1234, &fake_hash);
+        manifest.assets.sort_by(|a, b| a.id.cmp(&b.id));
+        write_manifest(&dir, &manifest);
+        Bundle::open(&dir.path("b")).unwrap();
+        TileIndex::open(&dir.path("b")).unwrap();
+        dir
+    };
+    // Two records swapped: the reader's search would not find them.
+    let dir = fresh("tile_table_order");
+    edit_records(&dir, |r| r.swap(3, 4));
+    refused(&dir, "does not come after record 3");
+    // A record whose origin is not its grid index's.
+    let dir = fresh("tile_table_grid");
+    edit_records(&dir, |r| r[5][12..16].copy_from_slice(&7u32.to_le_bytes()));
+    refused(&dir, "starts at 7");
+    // A horizon part naming heights that are not in the bundle: every horizon tile names none.
+    let dir = fresh("tile_table_dependency");
+    let text = String::from_utf8(dir.read("b/bundle.ron")).unwrap();
+    assert!(text.contains(r#"heightfield: "dem.height""#), "{text}");
+    dir.write("b/bundle.ron", text.replace(r#"heightfield: "dem.height""#, r#"heightfield: "dem.nothing""#));
+    for err in [Bundle::open(&dir.path("b")).unwrap_err(), TileIndex::open(&dir.path("b")).unwrap_err()] {
+        let err = err.to_string();
+        assert!(err.contains("dem.nothing") && err.contains("not in the bundle"), "{err}");
+    }
+    // A table that is a link to a file outside the bundle.
+    let dir = fresh("tile_table_link");
+    let text = String::from_utf8(dir.read("b/bundle.ron")).unwrap();
+    let table = Manifest::tile_sets(&text, "b/bundle.ron".as_ref()).unwrap().remove(0).table;
+    std::fs::rename(dir.path(&format!("b/{table}")), dir.path("outside.bin")).unwrap();
+    std::os::unix::fs::symlink(dir.path("outside.bin"), dir.path(&format!("b/{table}"))).unwrap();
+    refused(&dir, "symbolic link");
+}
+
+/// A plain horizon naming a heightfield that is not in the bundle, or an occlusion map naming
+/// something other than a horizon, is refused by name.
+#[test]
+fn an_asset_naming_what_is_not_there_is_refused() {
+    let dir = Dir::with_default_bundle("missing_dependency");
+    let text = String::from_utf8(dir.read("bundle/bundle.ron")).unwrap();
+    assert!(text.contains(r#"heightfield: "dunes.height""#));
+    dir.write("bundle/bundle.ron", text.replace(r#"heightfield: "dunes.height""#, r#"heightfield: "dunes.gone""#));
+    let err = Bundle::open(&dir.path("bundle")).unwrap_err().to_string();
+    assert!(err.contains("dunes.horizon") && err.contains("`dunes.gone`, which is not in the bundle"), "{err}");
+    let out = dir.run_expecting(&["validate", "bundle"], 1);
+    let said = format!("{}{}", String::from_utf8_lossy(&out.stdout), stderr(&out));
+    assert!(said.contains("dunes.horizon") && said.contains("dunes.gone"), "{said}");
+    let wrong = text.replace(r#"horizon: "terrain.horizon""#, r#"horizon: "terrain.height""#);
+    assert_ne!(wrong, text);
+    dir.write("bundle/bundle.ron", wrong);
+    let err = Bundle::open(&dir.path("bundle")).unwrap_err().to_string();
+    assert!(err.contains("terrain.ao") && err.contains("as its horizon, which is a heightfield"), "{err}");
+}

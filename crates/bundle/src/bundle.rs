@@ -223,7 +223,7 @@ pub(crate) fn read_payload_in(dir: &Path, asset: &Asset, limits: &Limits) -> Res
 pub(crate) fn parse_in(dir: &Path, text: &str, limits: &Limits) -> Result<Manifest, BundleError> {
     let path = dir.join(MANIFEST_FILE);
     Manifest::parse_with_tables(text, &path, limits, &mut |set| {
-        read_limited(&dir.join(&set.table), set.byte_length, "tile table size")
+        crate::files::read_in_bundle(&dir.join(&set.table), set.byte_length, "tile table size")
     })
 }
 
@@ -235,6 +235,11 @@ pub fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(String, S
     // manifest lists tens of thousands of assets; the checks of each asset alone then run on
     // every core.
     let mut ids = std::collections::HashSet::with_capacity(manifest.assets.len());
+    // Every id's kind, for the assets an asset names (the first of a repeated id).
+    let mut kinds = std::collections::HashMap::with_capacity(manifest.assets.len());
+    for a in &manifest.assets {
+        kinds.entry(a.id.as_str()).or_insert(a.kind);
+    }
     // Assets with identical payloads may share a file (format 1.10); other bytes may not.
     let mut files = std::collections::HashMap::with_capacity(manifest.assets.len());
     let repeats: Vec<(bool, bool)> = manifest
@@ -246,7 +251,8 @@ pub fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(String, S
             (!ids.insert(a.id.as_str()), clash)
         })
         .collect();
-    let per_asset = crate::parallel::map(&manifest.assets, |i, a| asset_problems(manifest, i, a, repeats[i], limits));
+    let per_asset =
+        crate::parallel::map(&manifest.assets, |i, a| asset_problems(manifest, i, a, repeats[i], &kinds, limits));
     per_asset.into_iter().flatten().collect()
 }
 
@@ -257,11 +263,27 @@ fn asset_problems(
     i: usize,
     a: &Asset,
     (repeated_id, repeated_file): (bool, bool),
+    kinds: &std::collections::HashMap<&str, AssetKind>,
     limits: &Limits,
 ) -> Vec<(String, String)> {
     let mut problems = Vec::new();
     {
         let mut bad = |m: String| problems.push((if a.id.is_empty() { format!("#{i}") } else { a.id.clone() }, m));
+        // The assets it is read with: a horizon's heightfield, an occlusion map's horizon.
+        let needs = match &a.settings {
+            crate::Settings::Horizon(h) => Some((h.heightfield.as_str(), AssetKind::Heightfield)),
+            crate::Settings::AmbientOcclusion(o) => Some((o.horizon.as_str(), AssetKind::Horizon)),
+            _ => None,
+        };
+        if let Some((id, kind)) = needs {
+            match kinds.get(id) {
+                None => bad(format!("it names {} `{id}`, which is not in the bundle", kind.name())),
+                Some(k) if *k != kind => {
+                    bad(format!("it names `{id}` as its {}, which is a {}", kind.name(), k.name()))
+                }
+                Some(_) => {}
+            }
+        }
         if let Err(m) = check_asset_id(&a.id) {
             bad(m);
         }

@@ -28,6 +28,30 @@ pub fn open_regular(path: &Path) -> std::io::Result<fs::File> {
     if meta.is_file() { Ok(file) } else { Err(not_regular(&meta)) }
 }
 
+/// A file inside a bundle (a payload, a tile table) as [`open_regular`] opens it, but a symbolic
+/// link is refused: a bundle's files are its own, and a link may lead anywhere.
+pub fn open_in_bundle(path: &Path) -> std::io::Result<fs::File> {
+    let meta = fs::symlink_metadata(path)?;
+    if !meta.is_file() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            if meta.file_type().is_symlink() {
+                "a symbolic link: a bundle's files are refused through links".to_string()
+            } else {
+                not_regular(&meta).to_string()
+            },
+        ));
+    }
+    open_regular(path)
+}
+
+/// Reads the file `path` inside a bundle ([`open_in_bundle`]: no symbolic links), refusing it
+/// before reading when it is larger than `limit` bytes.
+pub fn read_in_bundle(path: &Path, limit: u64, what: &str) -> Result<Vec<u8>, BundleError> {
+    open_in_bundle(path).map_err(|e| BundleError::io(path, e))?;
+    read_limited(path, limit, what)
+}
+
 /// Reads the regular file `path`, refusing it before reading when it is larger than `limit`
 /// bytes (`what` names the quantity in the error: `manifest size`, `payload size`).
 pub fn read_limited(path: &Path, limit: u64, what: &str) -> Result<Vec<u8>, BundleError> {

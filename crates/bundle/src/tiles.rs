@@ -19,7 +19,9 @@
 //! [`find_tile`] reads one tile's entry from a table without reading the rest of it.
 //!
 //! The table file (little-endian): the 8 bytes `HKTILES1`, the record size (`u32`, 100) and a
-//! reserved `u32` (0), then the records sorted by part, level, row and column:
+//! reserved `u32` (0), then the records sorted by the ids of the tiles they stand for (a reader
+//! finds one by binary search), each on its part and level's grid (its origin its grid index
+//! times the size of tile `(0, 0)`):
 //!
 //! | bytes | field |
 //! |---|---|
@@ -289,9 +291,11 @@ pub(crate) fn expected_bytes(set: &TileSet, max_records: u64) -> Result<u64, Str
 }
 
 /// The assets of a set from its table file's `bytes` (already read): the file's size, hash
-/// and header are checked, and every record must name a part of the set and a tile of its map.
+/// and header are checked, and every record must name a part of the set and a tile of its map,
+/// in id order, on its grid ([`check_records`]).
 pub(crate) fn unpack(set: &TileSet, bytes: &[u8], max_records: u64) -> Result<Vec<Asset>, String> {
     check_table(set, bytes, max_records)?;
+    check_records(set, bytes)?;
     let records = bytes[HEADER_BYTES as usize..].chunks_exact(RECORD_BYTES as usize);
     records
         .enumerate()
@@ -300,6 +304,63 @@ pub(crate) fn unpack(set: &TileSet, bytes: &[u8], max_records: u64) -> Result<Ve
             record_part(set, i, &r).map(|part| expand(part, &r))
         })
         .collect()
+}
+
+/// The records of a table whose bytes passed [`check_table`], against what a reader relies on:
+/// each names a part of the set; they are in strictly increasing id order (a reader finds a tile
+/// by binary search on its id); and each lies on its part and level's grid — column `i` starts
+/// at `i` times one step, row `j` likewise — and fits the part's map. A shard's table holds some
+/// of a grid's tiles: the step is what any of them gives.
+fn check_records(set: &TileSet, bytes: &[u8]) -> Result<(), String> {
+    let records = || bytes[HEADER_BYTES as usize..].chunks_exact(RECORD_BYTES as usize).map(read_record);
+    // Per part, level and axis: the step (the origin over the index of the first tile past
+    // the first column or row).
+    type Axis = Option<u64>;
+    let mut grids: std::collections::HashMap<(u16, u16), [Axis; 2]> = Default::default();
+    for (i, r) in records().enumerate() {
+        record_part(set, i, &r)?;
+        let axes = grids.entry((r.part, r.level)).or_default();
+        for (axis, index, origin) in [(0, r.index.0, r.origin.0), (1, r.index.1, r.origin.1)] {
+            let step = &mut axes[axis];
+            if index > 0 && step.is_none() {
+                *step = Some(origin as u64 / index as u64);
+            }
+        }
+    }
+    let on_grid = |index: u32, origin: u32, step: Axis, name: &str| -> Result<(), String> {
+        let step = step.unwrap_or(0);
+        if index > 0 && step == 0 {
+            return Err(format!("grid {name} {index} at {origin}: tiles past the first {name} start at 0"));
+        }
+        if origin as u64 != index as u64 * step {
+            return Err(format!("grid {name} {index} starts at {origin}, not at {index} × {step}"));
+        }
+        Ok(())
+    };
+    let mut previous = String::new();
+    for (i, r) in records().enumerate() {
+        let part = &set.parts[r.part as usize];
+        let id = format!("{}{}", part.id, tile_suffix(r.level as u32, r.index));
+        if i > 0 && id <= previous {
+            return Err(format!(
+                "record {i} (`{id}`) does not come after record {} (`{previous}`): records are sorted by id, and \
+                 a reader looks tiles up by binary search",
+                i - 1
+            ));
+        }
+        let [x, y] = grids[&(r.part, r.level)];
+        let map_size = part.settings.tile().map_or((0, 0), |p| p.map_size);
+        let fits = |o: u32, n: u32, size: u32| o as u64 + n as u64 <= size as u64;
+        on_grid(r.index.0, r.origin.0, x, "column")
+            .and_then(|()| on_grid(r.index.1, r.origin.1, y, "row"))
+            .and_then(|()| match fits(r.origin.0, r.size.0, map_size.0) && fits(r.origin.1, r.size.1, map_size.1) {
+                true => Ok(()),
+                false => Err(format!("a {:?} tile at {:?} does not fit its {map_size:?} map", r.size, r.origin)),
+            })
+            .map_err(|m| format!("record {i} (`{id}`): {m}"))?;
+        previous = id;
+    }
+    Ok(())
 }
 
 /// A table's bytes against its set's entry: their length, BLAKE3 and header.
@@ -381,23 +442,16 @@ impl TileIndex {
                 return Err(bad(format!("{:?} is not a plain file name inside the bundle directory", set.table)));
             }
             let length = expected_bytes(&set, room).map_err(bad)?;
-            let bytes = crate::files::read_limited(&table, length, "tile table size")?;
+            let bytes = crate::files::read_in_bundle(&table, length, "tile table size")?;
             // The whole set checked as a reader of the full manifest checks it, one tile of
             // each part standing for the rest (they differ only in numbers checked here).
             check_table(&set, &bytes, room).map_err(bad)?;
+            check_records(&set, &bytes).map_err(bad)?;
             let mut first: Vec<Option<Asset>> = vec![None; set.parts.len()];
             for (i, chunk) in bytes[HEADER_BYTES as usize..].chunks_exact(RECORD_BYTES as usize).enumerate() {
                 let r = read_record(chunk);
                 let part = record_part(&set, i, &r).map_err(bad)?;
                 let slot = &mut first[r.part as usize];
-                let fits = |o: u32, n: u32, size: u32| o as u64 + n as u64 <= size as u64;
-                let map_size = part.settings.tile().map_or((0, 0), |p| p.map_size);
-                if !fits(r.origin.0, r.size.0, map_size.0) || !fits(r.origin.1, r.size.1, map_size.1) {
-                    return Err(bad(format!(
-                        "record {i}: a {:?} tile at {:?} does not fit its {map_size:?} map",
-                        r.size, r.origin
-                    )));
-                }
                 if slot.is_none() {
                     *slot = Some(expand(part, &r));
                 }
@@ -464,7 +518,7 @@ pub fn find_tile(
     let Ok(level) = u16::try_from(level) else { return Ok(None) };
     let bad = |message: String| BundleError::Payload { path: path.clone(), asset: set.map.clone(), message };
     let expected = expected_bytes(set, u64::MAX / RECORD_BYTES / 2).map_err(bad)?;
-    let mut file = crate::files::open_regular(&path).map_err(|e| BundleError::io(&path, e))?;
+    let mut file = crate::files::open_in_bundle(&path).map_err(|e| BundleError::io(&path, e))?;
     let len = file.metadata().map_err(|e| BundleError::io(&path, e))?.len();
     if len != expected {
         return Err(bad(format!("the file is {len} bytes, the manifest says {expected}")));
