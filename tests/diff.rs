@@ -117,3 +117,24 @@ fn json_says_why_when_there_is_nothing_to_compare() {
         assert!(error.contains(words), "{error}");
     }
 }
+
+/// A manifest listing its assets out of id order (readers and `validate` accept one) is compared
+/// by id: against the same bundle sorted, nothing changed, nothing added or removed.
+#[test]
+fn a_manifest_out_of_id_order_is_compared_by_id() {
+    let dir = Dir::with_default_bundle("diff_order");
+    for (file, bytes) in dir.bundle_files("bundle") {
+        dir.write(&format!("reversed/{file}"), bytes);
+    }
+    // The assets' entries (each `(` … `),` at the list's indentation) in reverse order.
+    let text = String::from_utf8(dir.read("bundle/bundle.ron")).unwrap();
+    let start = text.find("    assets: [\n").unwrap() + "    assets: [\n".len();
+    let end = start + text[start..].find("\n    ],").unwrap() + 1;
+    let mut entries: Vec<&str> = text[start..end].split_inclusive("\n        ),\n").collect();
+    assert!(entries.len() > 10, "{} entries", entries.len());
+    entries.reverse();
+    dir.write("reversed/bundle.ron", format!("{}{}{}", &text[..start], entries.concat(), &text[end..]));
+    assert_ne!(dir.read("reversed/bundle.ron"), dir.read("bundle/bundle.ron"));
+    let out = stdout(&dir.run_expecting(&["diff", "bundle", "reversed"], 0));
+    assert!(out.contains("0 changed, 0 beyond tolerance") && !out.contains("removed"), "{out}");
+}

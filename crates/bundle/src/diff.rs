@@ -147,9 +147,11 @@ pub fn diff(old: &Bundle, new: &Bundle, tolerances: &Tolerances) -> Result<Vec<A
     let mut ids: Vec<&str> = a.iter().chain(b).map(|x| x.id.as_str()).collect();
     ids.sort_unstable();
     ids.dedup();
-    let find = |list: &[Asset], id: &str| list.binary_search_by(|x| x.id.as_str().cmp(id)).ok();
+    // By id, whatever order each manifest lists its assets in (one written by hand need not be
+    // sorted; the first of a repeated id, as the readers take it).
+    let (in_a, in_b) = (by_id(a), by_id(b));
     let work: Vec<(&str, Option<&Asset>, Option<&Asset>)> =
-        ids.iter().map(|&id| (id, find(a, id).map(|i| &a[i]), find(b, id).map(|i| &b[i]))).collect();
+        ids.iter().map(|&id| (id, in_a.get(id).copied(), in_b.get(id).copied())).collect();
     // Each asset on its own thread, at most as many at once as there are cores.
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut out = Vec::with_capacity(work.len());
@@ -164,6 +166,15 @@ pub fn diff(old: &Bundle, new: &Bundle, tolerances: &Tolerances) -> Result<Vec<A
         }
     }
     Ok(out)
+}
+
+/// `list`'s assets by id, the first of a repeated id (as the readers take it).
+fn by_id(list: &[Asset]) -> std::collections::HashMap<&str, &Asset> {
+    let mut map = std::collections::HashMap::with_capacity(list.len());
+    for x in list {
+        map.entry(x.id.as_str()).or_insert(x);
+    }
+    map
 }
 
 /// One asset's fate.
