@@ -754,3 +754,50 @@ fn budgets_refuse_to_commit_and_validate_checks_them() {
         assert!(stderr(&out).contains(word) && stderr(&out).contains("budget"), "{}", stderr(&out));
     }
 }
+
+/// `export --gltf` of a skinned scalp: its joint indices are `JOINTS_0`, unsigned and not
+/// normalized (a reader gets the joint numbers, not fractions), its weights `WEIGHTS_0`, under a
+/// skin naming the scalp's joints.
+#[test]
+fn a_scalp_exports_its_joints_as_integers_under_a_skin() {
+    let character = hikage_devkit::synth::character(400, 8, 5);
+    let dir = Dir::new("gltf_scalp");
+    dir.write("character.glb", &character.glb);
+    dir.write("head.hair", hikage_bake::strands::cyhair::encode(&character.hair, "skinned character"));
+    dir.run(&["strands", "head.hair", "--out", "b", "--scalp", "character.glb"]);
+    let bundle = hikage_bundle::Bundle::open(&dir.path("b")).unwrap();
+    let scalp = bundle.manifest().assets.iter().find(|a| a.kind == hikage_bundle::AssetKind::Scalp).unwrap().clone();
+    let joints = scalp.settings.scalp().unwrap().joints.clone();
+    dir.run(&["export", "b", &scalp.id, "--gltf", "scalp.glb"]);
+    let glb = dir.read("scalp.glb");
+    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let doc: serde_json::Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
+    let attrs = &doc["meshes"][0]["primitives"][0]["attributes"];
+    let accessor = |name: &str| &doc["accessors"][attrs[name].as_u64().unwrap() as usize];
+    assert_eq!(accessor("JOINTS_0")["componentType"], 5123, "{doc}");
+    assert!(accessor("JOINTS_0").get("normalized").is_none(), "{doc}");
+    assert_eq!(accessor("WEIGHTS_0")["normalized"], true, "{doc}");
+    assert!(attrs.get("_JOINTS").is_none() && attrs.get("_WEIGHTS").is_none(), "{doc}");
+    let names: Vec<&str> = doc["skins"][0]["joints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| doc["nodes"][n.as_u64().unwrap() as usize]["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, joints.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(doc["nodes"][0]["skin"], 0);
+    // The joint numbers read back as the scalp holds them, every one a joint of the skin.
+    let scalp_mesh = bundle.read_mesh(&scalp.id).unwrap();
+    let read = hikage_bundle::Scalp::read(&scalp_mesh).unwrap();
+    let bin_at = 20 + json_len;
+    let bin = &glb[bin_at + 8..];
+    let view = &doc["bufferViews"][accessor("JOINTS_0")["bufferView"].as_u64().unwrap() as usize];
+    let offset = view["byteOffset"].as_u64().unwrap() as usize;
+    let stride = view.get("byteStride").and_then(|s| s.as_u64()).unwrap_or(8) as usize;
+    for (v, want) in read.joints.iter().enumerate() {
+        let at = offset + v * stride;
+        let j: [u16; 4] = std::array::from_fn(|k| u16::from_le_bytes([bin[at + 2 * k], bin[at + 2 * k + 1]]));
+        assert_eq!(&j, want, "vertex {v}");
+        assert!(j.iter().all(|&x| (x as usize) < joints.len()), "vertex {v}: joints {j:?}");
+    }
+}

@@ -3,7 +3,8 @@
 //! Streams map to glTF attributes: `position` → `POSITION` (with the min/max glTF requires),
 //! `normal` → `NORMAL`, a 4-component `tangent` → `TANGENT`, `color` → `COLOR_0`, `uv` →
 //! `TEXCOORD_0`; every other stream becomes a custom attribute named `_` + its upper-cased name
-//! (`_CURVATURE`, `_STRAND_ID`, …). Indices are triangles, as stored (U32 or U16). One buffer, one buffer
+//! (`_CURVATURE`, `_STRAND_ID`, …); a scalp's `joints` and `weights` are `JOINTS_0` (integers,
+//! not normalized) and `WEIGHTS_0`, under a skin naming its joints. Indices are triangles, as stored (U32 or U16). One buffer, one buffer
 //! view per stream, all 4-byte aligned. 8- and 16-bit streams are written as they are stored,
 //! `normalized`; where core glTF does not allow their type (8-bit normals and tangents) the file
 //! lists KHR_mesh_quantization as used and required.
@@ -25,6 +26,9 @@ fn attribute_name(stream: &str, components: u8) -> String {
         "normal" => "NORMAL".into(),
         "color" => "COLOR_0".into(),
         "uv" => "TEXCOORD_0".into(),
+        // A scalp's skin: joint indices (integers) and their weights.
+        "joints" if components == 4 => "JOINTS_0".into(),
+        "weights" if components == 4 => "WEIGHTS_0".into(),
         other => format!("_{}", other.to_uppercase()),
     }
 }
@@ -57,23 +61,35 @@ fn core_allows(gltf: &str, component: ComponentType) -> bool {
     match gltf {
         _ if component == ComponentType::F32 => true,
         "NORMAL" | "TANGENT" | "POSITION" => false,
-        "TEXCOORD_0" | "COLOR_0" => matches!(component, ComponentType::U8 | ComponentType::U16),
+        "TEXCOORD_0" | "COLOR_0" | "JOINTS_0" | "WEIGHTS_0" => {
+            matches!(component, ComponentType::U8 | ComponentType::U16)
+        }
         _ => true, // application-specific attributes take any type
     }
 }
 
 /// The GLB bytes of a mesh.
 pub fn glb(mesh: &MeshData, generator: &str) -> Result<Vec<u8>, String> {
+    glb_skinned(mesh, generator, &[])
+}
+
+/// The GLB bytes of a mesh skinned by `joints` (a scalp's joint names, in the order its `joints`
+/// stream indexes them): a node per joint at the scene's root and a skin naming them, with the
+/// identity for every inverse bind matrix (the mesh as stored is the bind pose); no joints, no
+/// skin.
+pub fn glb_skinned(mesh: &MeshData, generator: &str, joints: &[String]) -> Result<Vec<u8>, String> {
     let mut bin: Vec<u8> = Vec::new();
     let (mut views, mut accessors, mut attributes) = (Vec::new(), Vec::new(), serde_json::Map::new());
     let mut quantized = false;
     for a in &mesh.desc.attributes {
         let (code, normalized) = component_type(a.component)
             .ok_or_else(|| format!("stream `{}`: glTF takes U32 only for indices", a.name))?;
+        let gltf = attribute_name(&a.name, a.components);
+        // Joint indices are integers, never normalized.
+        let normalized = normalized && gltf != "JOINTS_0";
         if a.name == "position" && a.component != ComponentType::F32 {
             return Err("stream `position`: only f32 positions are exported".into());
         }
-        let gltf = attribute_name(&a.name, a.components);
         quantized |= !core_allows(&gltf, a.component);
         let start = a.offset as usize;
         let len = a.count as usize * a.stride as usize;
@@ -125,16 +141,24 @@ pub fn glb(mesh: &MeshData, generator: &str) -> Result<Vec<u8>, String> {
             .push(json!({ "bufferView": views.len() - 1, "componentType": code, "count": ix.count, "type": "SCALAR" }));
         bin.extend_from_slice(data);
     }
+    let mut nodes = vec![json!({ "mesh": 0 })];
+    if !joints.is_empty() {
+        nodes[0]["skin"] = json!(0);
+        nodes.extend(joints.iter().map(|name| json!({ "name": name })));
+    }
     let mut doc = json!({
         "asset": { "version": "2.0", "generator": generator },
         "scene": 0,
-        "scenes": [{ "nodes": [0] }],
-        "nodes": [{ "mesh": 0 }],
+        "scenes": [{ "nodes": (0..nodes.len()).collect::<Vec<_>>() }],
+        "nodes": nodes,
         "meshes": [{ "primitives": [primitive] }],
         "buffers": [{ "byteLength": bin.len() }],
         "bufferViews": views,
         "accessors": accessors,
     });
+    if !joints.is_empty() {
+        doc["skins"] = json!([{ "joints": (1..=joints.len()).collect::<Vec<_>>() }]);
+    }
     if quantized {
         doc["extensionsUsed"] = json!(["KHR_mesh_quantization"]);
         doc["extensionsRequired"] = json!(["KHR_mesh_quantization"]);
@@ -169,8 +193,12 @@ pub fn export_gltf(bundle: &Bundle, id: &str, out: &Path) -> Result<(u32, u32), 
         })?;
         mesh = crate::strands::ribbons::build(&points, settings.taper);
     }
-    let bytes =
-        glb(&mesh, hikage_bundle::GENERATOR).map_err(|m| BakeError::input(out, Some(format!("asset `{id}`")), m))?;
+    let joints = match &bundle.asset(id)?.settings {
+        hikage_bundle::Settings::Scalp(scalp) => scalp.joints.clone(),
+        _ => Vec::new(),
+    };
+    let bytes = glb_skinned(&mesh, hikage_bundle::GENERATOR, &joints)
+        .map_err(|m| BakeError::input(out, Some(format!("asset `{id}`")), m))?;
     super::write_via_temp(out, &bytes)?;
     Ok((mesh.desc.vertex_count, mesh.desc.indices.as_ref().map_or(0, |i| i.count)))
 }
