@@ -75,3 +75,31 @@ fn shard_indices_come_from_the_command_line_or_the_environment() {
     assert!(counts.iter().all(|&c| (70..=130).contains(&c)), "{counts:?}");
     assert_eq!(shard_of("terrain", 7), shard_of("terrain", 7));
 }
+
+/// A pipeline's budget reaches the merged bundle as it reaches one machine's (byte-identical
+/// bundles), and a shard whose own part already overruns it is refused as a bake is.
+#[test]
+fn shards_and_merge_keep_the_budget() {
+    let budgeted = PIPELINE.replace(r#"(output: "bundle","#, r#"(output: "bundle", budget: (disk: Some(50000000)),"#);
+    assert_ne!(budgeted, PIPELINE);
+    let whole = Dir::with_pipeline("shard_budget_whole", &budgeted);
+    whole.run(&["bake"]);
+    let parts: Vec<Dir> = (0..3).map(|k| Dir::with_pipeline(&format!("shard_budget_{k}"), &budgeted)).collect();
+    for (k, part) in parts.iter().enumerate() {
+        part.run(&["bake", "--shard", &format!("{k}/3")]);
+    }
+    let merged = Dir::new("shard_budget_merged");
+    let paths: Vec<String> = parts.iter().map(|p| p.path("bundle").display().to_string()).collect();
+    let mut args = vec!["merge", "out"];
+    args.extend(paths.iter().map(String::as_str));
+    merged.run(&args);
+    assert_eq!(merged.bundle_files("out"), whole.bundle_files("bundle"), "merged bundle differs from one machine's");
+    let manifest = String::from_utf8(merged.read("out/bundle.ron")).unwrap();
+    assert!(manifest.contains("disk: Some(50000000)"), "{manifest}");
+    // A budget one shard's part alone overruns: that shard is refused, naming the budget.
+    let tight = PIPELINE.replace(r#"(output: "bundle","#, r#"(output: "bundle", budget: (disk: Some(1000)),"#);
+    let part = Dir::with_pipeline("shard_budget_tight", &tight);
+    let out = part.run_expecting(&["bake", "--shard", "0/3"], 4);
+    assert!(stderr(&out).contains("over its budget of 1000"), "{}", stderr(&out));
+    assert!(!part.path("bundle/bundle.ron").exists(), "nothing committed");
+}

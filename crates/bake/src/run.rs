@@ -135,9 +135,10 @@ fn run_jobs(loaded: &LoadedPipeline, options: &RunOptions, mode: WriteMode) -> R
         // A pipeline owns its bundle: another pipeline's is refused by name at the commit,
         // unless that pipeline file is gone (a moved checkout) or --force takes the bundle over.
         writer.set_owner(&owner_record(&out, &loaded.path), options.force);
-        // A shard's partial bundle is not the bundle the budget is for.
+        // The budget is the whole bundle's: a shard's part records it (a merge gives it to the
+        // merged bundle) and is refused, as a bake is, when it alone already overruns it.
         let budget = &loaded.pipeline.budget;
-        if options.shard.is_none() && *budget != hikage_bundle::Budget::default() {
+        if *budget != hikage_bundle::Budget::default() {
             writer.set_budget(Some(budget.clone()));
         }
     }

@@ -205,6 +205,12 @@ pub fn merge(out: &Path, parts: &[PathBuf], force: bool) -> Result<MergeReport, 
     let bundles: Vec<Bundle> = parts.iter().map(|p| Bundle::open(p)).collect::<Result<_, _>>()?;
     for (part, bundle) in parts.iter().zip(&bundles) {
         let (m, m0) = (bundle.manifest(), bundles[0].manifest());
+        if m.budget != m0.budget {
+            return Err(refuse(
+                part,
+                format!("records the budget {:?}, {} records {:?}", m.budget, first.display(), m0.budget),
+            ));
+        }
         if m.generator != m0.generator || m.format != m0.format {
             return Err(refuse(
                 part,
@@ -224,6 +230,8 @@ pub fn merge(out: &Path, parts: &[PathBuf], force: bool) -> Result<MergeReport, 
     } else {
         BundleWriter::open(out, WriteMode::Replace)?
     };
+    // The pipeline's budget, as each part records it: the merged bundle's, checked at the commit.
+    writer.set_budget(bundles[0].manifest().budget.clone());
     let mut taken: std::collections::BTreeMap<&str, (&Asset, &Path)> = Default::default();
     for (part, bundle) in parts.iter().zip(&bundles) {
         for asset in &bundle.manifest().assets {
