@@ -9,7 +9,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use hikage_bundle::diff::{Status, Tolerances};
-use hikage_bundle::{Asset, AssetKind, Bundle, Settings, TextureData};
+use hikage_bundle::{Asset, AssetKind, Bundle, Payload, Settings, TextureData};
 
 use crate::BakeError;
 
@@ -119,13 +119,18 @@ impl Picture {
 }
 
 /// The picture of asset `asset` in `bundle`, with what it shows; `None` for a kind with nothing
-/// to show.
-fn render(bundle: &Bundle, asset: &Asset) -> Result<Option<(Picture, String)>, BakeError> {
+/// to show. `panels` 4 shows a horizon or relief map from four directions, 1 from the first.
+/// An error names the asset as well as the file (a shared payload's file is named after
+/// another asset).
+fn render(bundle: &Bundle, asset: &Asset, panels: usize) -> Result<Option<(Picture, String)>, BakeError> {
+    let named = |e: hikage_bundle::BundleError| {
+        BakeError::input(bundle.payload_path(asset), Some(format!("asset `{}`", asset.id)), e.to_string())
+    };
     if asset.kind.is_mesh() {
-        let mesh = bundle.read_mesh(&asset.id)?;
+        let mesh = bundle.read_mesh(&asset.id).map_err(named)?;
         return Ok(mesh_picture(asset.kind, &mesh));
     }
-    let t = bundle.read_texture(&asset.id)?;
+    let t = bundle.read_texture(&asset.id).map_err(named)?;
     let (w, h) = (t.desc.width as usize, t.desc.height as usize);
     let slices = (t.desc.depth.max(1) * t.desc.layers.max(1)) as usize;
     Ok(Some(match &asset.settings {
@@ -147,7 +152,7 @@ fn render(bundle: &Bundle, asset: &Asset) -> Result<Option<(Picture, String)>, B
         Settings::Horizon(s) => {
             let v = t.to_f32(0);
             let tan_sun = MASK_SUN_DEGREES.to_radians().tan();
-            let masks: Vec<Picture> = (0..4)
+            let masks: Vec<Picture> = (0..panels)
                 .map(|q| {
                     let k = (q * slices / 4) % slices.max(1);
                     Picture::grey(w, h, |x, y| {
@@ -166,7 +171,7 @@ fn render(bundle: &Bundle, asset: &Asset) -> Result<Option<(Picture, String)>, B
         }
         Settings::Relief(_) => {
             let v = t.channel_f32(0, 0);
-            let layers: Vec<Picture> = (0..4)
+            let layers: Vec<Picture> = (0..panels)
                 .map(|q| {
                     let k = ((2 * q + 1) * slices / 8).min(slices - 1);
                     Picture::grey(w, h, |x, y| 1.0 - v[(k * h + y) * w + x])
@@ -271,8 +276,127 @@ fn html(text: &str) -> String {
     text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }
 
+/// Largest side of a tiled map's level-0 mosaic, pixels; level `k`'s is this over `2^k` (at
+/// least [`MOSAIC_MIN`]).
+const MOSAIC: usize = 512;
+
+/// Smallest side of a level's mosaic, pixels.
+const MOSAIC_MIN: usize = 64;
+
+/// A picture's place on the page: a plain asset's, or the mosaic of one part of a tiled map at
+/// one level (`<part>.L<k>`).
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum Card {
+    Asset(usize),
+    Map { part: String, level: u32 },
+}
+
+impl Card {
+    /// The picture's file in role directory `role` (`new`, `old`, `diff`): plain assets under
+    /// `asset/`, mosaics under `map/`, so no asset's name can meet another picture's.
+    fn file(&self, assets: &[Asset], role: &str) -> String {
+        match self {
+            Card::Asset(i) => format!("{role}/asset/{}.png", assets[*i].id),
+            Card::Map { part, level } => format!("{role}/map/{part}.L{level}.png"),
+        }
+    }
+}
+
+/// The card of each asset: its own, or its tiled map's mosaic for its part and level.
+fn card_of(asset: &Asset, index: usize) -> Card {
+    match asset.settings.tile() {
+        Some(p) => {
+            let suffix = hikage_bundle::tiles::tile_suffix(p.level, p.index);
+            let part = asset.id.strip_suffix(&suffix).unwrap_or(&asset.id).to_string();
+            Card::Map { part, level: p.level }
+        }
+        None => Card::Asset(index),
+    }
+}
+
+/// The mosaic of the tiles `tiles` (indices into `bundle`'s assets, one part of one level):
+/// each tile's picture (its first panel) scaled into its place in the level's map, the whole at
+/// most [`MOSAIC`] over `2^level` a side. Tiles are rendered on every core, each as small as its
+/// place, so a map of thousands of tiles never holds their full pictures at once.
+fn mosaic(bundle: &Bundle, tiles: &[usize], level: u32) -> Result<Option<(Picture, String)>, BakeError> {
+    use rayon::prelude::*;
+    let assets = &bundle.manifest().assets;
+    let map = tiles.iter().filter_map(|&i| assets[i].settings.tile()).map(|p| p.map_size).next().unwrap_or((1, 1));
+    let side = (MOSAIC >> level.min(16)).max(MOSAIC_MIN) as f32;
+    let scale = side / map.0.max(map.1).max(1) as f32;
+    let (w, h) = (((map.0 as f32 * scale).ceil() as usize).max(1), ((map.1 as f32 * scale).ceil() as usize).max(1));
+    let placed: Vec<Option<(usize, usize, Picture, String)>> = tiles
+        .par_iter()
+        .map(|&i| -> Result<_, BakeError> {
+            let a = &assets[i];
+            let (Some(p), Payload::Texture(t)) = (a.settings.tile(), &a.payload) else { return Ok(None) };
+            let Some((picture, what)) = render(bundle, a, 1)? else { return Ok(None) };
+            let (x0, y0) = ((p.origin.0 as f32 * scale) as usize, (p.origin.1 as f32 * scale) as usize);
+            let x1 = (((p.origin.0 + t.width) as f32 * scale).ceil() as usize).clamp(x0 + 1, w.max(x0 + 1));
+            let y1 = (((p.origin.1 + t.height) as f32 * scale).ceil() as usize).clamp(y0 + 1, h.max(y0 + 1));
+            let (pw, ph) = (x1 - x0, y1 - y0);
+            let mut small = Picture::new(pw, ph);
+            for y in 0..ph {
+                for x in 0..pw {
+                    small.rgb[y * pw + x] =
+                        picture.rgb[(y * picture.height / ph) * picture.width + x * picture.width / pw];
+                }
+            }
+            Ok(Some((x0, y0, small, what)))
+        })
+        .collect::<Result<_, _>>()?;
+    let mut out = Picture::new(w, h);
+    out.rgb.fill([40, 40, 40]);
+    let mut what = None;
+    for (x0, y0, small, w_) in placed.into_iter().flatten() {
+        for y in 0..small.height {
+            for x in 0..small.width {
+                if y0 + y < h && x0 + x < w {
+                    out.rgb[(y0 + y) * w + x0 + x] = small.rgb[y * small.width + x];
+                }
+            }
+        }
+        what.get_or_insert(w_);
+    }
+    Ok(what.map(|what| (out, format!("{} tiles: {what}", tiles.len()))))
+}
+
+/// The picture of `card` in `bundle`: an asset's, or a mosaic of the tiles `tiles` lists for it.
+fn picture_of(
+    bundle: &Bundle,
+    card: &Card,
+    tiles: &std::collections::BTreeMap<Card, Vec<usize>>,
+) -> Result<Option<(Picture, String)>, BakeError> {
+    match card {
+        Card::Asset(i) => render(bundle, &bundle.manifest().assets[*i], 4),
+        Card::Map { level, .. } => mosaic(bundle, &tiles[card], *level),
+    }
+}
+
+/// Every card of `bundle` in manifest order (a map's mosaic where its first tile is), and each
+/// map card's tiles.
+fn cards(bundle: &Bundle) -> (Vec<Card>, std::collections::BTreeMap<Card, Vec<usize>>) {
+    let mut order = Vec::new();
+    let mut tiles: std::collections::BTreeMap<Card, Vec<usize>> = Default::default();
+    for (i, a) in bundle.manifest().assets.iter().enumerate() {
+        let card = card_of(a, i);
+        if let Card::Map { .. } = card {
+            let list = tiles.entry(card.clone()).or_default();
+            if list.is_empty() {
+                order.push(card);
+            }
+            list.push(i);
+        } else {
+            order.push(card);
+        }
+    }
+    (order, tiles)
+}
+
 /// Writes the contact sheet of `bundle` into `out` (created): `index.html` and one PNG per
-/// asset (`<id>.png`, and `<id>.old.png`, `<id>.diff.png` for assets changed since `old`).
+/// plain asset (`new/asset/<id>.png`; for assets changed since `old`, `old/asset/<id>.png` and
+/// `diff/asset/<id>.png`), and per tiled map, part and level one mosaic of its tiles
+/// (`new/map/<part>.L<k>.png`, old and diff likewise when a tile changed).
 ///
 /// ```no_run
 /// use hikage_bundle::Bundle;
@@ -282,17 +406,25 @@ fn html(text: &str) -> String {
 /// # Ok::<(), hikage_bake::BakeError>(())
 /// ```
 pub fn write_sheet(bundle: &Bundle, old: Option<&Bundle>, out: &Path) -> Result<SheetReport, BakeError> {
-    std::fs::create_dir_all(out).map_err(|e| BakeError::io(out, e))?;
+    for role in ["new", "old", "diff"] {
+        for kind in ["asset", "map"] {
+            let dir = out.join(role).join(kind);
+            std::fs::create_dir_all(&dir).map_err(|e| BakeError::io(&dir, e))?;
+        }
+    }
     let changes = match old {
         Some(o) => hikage_bundle::diff::diff(o, bundle, &Tolerances::default())?,
         None => Vec::new(),
     };
+    let status = |id: &str| changes.iter().find(|c| c.id == id).map(|c| c.status);
     let summary = hikage_bundle::inspect::summarize(bundle.manifest());
     let assets = &bundle.manifest().assets;
-    // Every asset's pictures, on every core.
+    let (order, tiles) = cards(bundle);
+    let old_cards = old.map(cards);
+    // Every plain asset's picture on every core; a mosaic renders its tiles on every core.
     let rendered: Vec<Result<Option<(Picture, String)>, BakeError>> = {
         use rayon::prelude::*;
-        assets.par_iter().map(|a| render(bundle, a)).collect()
+        order.par_iter().map(|c| picture_of(bundle, c, &tiles)).collect()
     };
     let mut page = String::new();
     let title = html(&bundle.dir().display().to_string());
@@ -309,22 +441,38 @@ pub fn write_sheet(bundle: &Bundle, old: Option<&Bundle>, out: &Path) -> Result<
         summary.gpu_bytes as f64 / 1048576.0
     );
     let (mut images, mut bytes, mut changed) = (0usize, 0u64, 0usize);
-    for ((asset, info), picture) in assets.iter().zip(&summary.assets).zip(rendered) {
+    for (card, picture) in order.iter().zip(rendered) {
         let Some((picture, what)) = picture? else { continue };
-        let file = format!("{}.png", asset.id);
+        let file = card.file(assets, "new");
         bytes += picture.png(&out.join(&file))?;
         images += 1;
-        let change = changes.iter().find(|c| c.id == asset.id).map(|c| c.status);
+        // What the card stands for: its asset, or its tiles.
+        let members: Vec<usize> = match card {
+            Card::Asset(i) => vec![*i],
+            Card::Map { .. } => tiles[card].clone(),
+        };
+        let statuses: Vec<Option<Status>> = members.iter().map(|&i| status(&assets[i].id)).collect();
+        let change = if statuses.contains(&Some(Status::Changed)) {
+            Some(Status::Changed)
+        } else if statuses.iter().all(|s| *s == Some(Status::Added)) {
+            Some(Status::Added)
+        } else {
+            None
+        };
         let mut extra = String::new();
-        if let (Some(Status::Changed), Some(o)) = (change, old) {
-            let before = o.manifest().asset(&asset.id).map(|a| render(o, a)).transpose()?.flatten();
+        if let (Some(Status::Changed), Some(o), Some((_, old_tiles))) = (change, old, &old_cards) {
+            let before = match card {
+                Card::Asset(i) => o.manifest().asset(&assets[*i].id).map(|a| render(o, a, 4)).transpose()?.flatten(),
+                Card::Map { .. } if old_tiles.contains_key(card) => picture_of(o, card, old_tiles)?,
+                Card::Map { .. } => None,
+            };
             if let Some((before, _)) = before {
-                let old_file = format!("{}.old.png", asset.id);
+                let old_file = card.file(assets, "old");
                 bytes += before.png(&out.join(&old_file))?;
                 images += 1;
                 let _ = write!(extra, "<small>old</small><img src=\"{}\" alt=\"old\">", html(&old_file));
                 if let Some(d) = before.difference(&picture) {
-                    let diff_file = format!("{}.diff.png", asset.id);
+                    let diff_file = card.file(assets, "diff");
                     bytes += d.png(&out.join(&diff_file))?;
                     images += 1;
                     let _ = write!(
@@ -336,29 +484,47 @@ pub fn write_sheet(bundle: &Bundle, old: Option<&Bundle>, out: &Path) -> Result<
                 changed += 1;
             }
         }
-        let dims = info.dimensions.iter().map(u64::to_string).collect::<Vec<_>>().join("×");
-        let status = match change {
-            Some(Status::Changed) => " — changed",
-            Some(Status::Added) => " — added",
-            _ => "",
+        let label = match card {
+            Card::Asset(i) => {
+                let (asset, info) = (&assets[*i], &summary.assets[*i]);
+                let dims = info.dimensions.iter().map(u64::to_string).collect::<Vec<_>>().join("×");
+                format!(
+                    "<b>{}</b>{}<br><small>{} · {} {} · {:.2} MiB on disk, {:.2} MiB GPU · budget {}</small>",
+                    html(&asset.id),
+                    status_text(change),
+                    html(&info.kind),
+                    html(&info.format),
+                    html(&dims),
+                    info.byte_length as f64 / 1048576.0,
+                    info.gpu_bytes as f64 / 1048576.0,
+                    html(&budget_of(bundle, &asset.id)),
+                )
+            }
+            Card::Map { part, level } => {
+                let disk: u64 = members.iter().map(|&i| summary.assets[i].byte_length).sum();
+                let gpu: u64 = members.iter().map(|&i| summary.assets[i].gpu_bytes).sum();
+                let first = &summary.assets[members[0]];
+                format!(
+                    "<b>{} level {level}</b>{}<br><small>{} · {} · {} tiles · {:.2} MiB on disk, {:.2} MiB GPU</small>",
+                    html(part),
+                    status_text(change),
+                    html(&first.kind),
+                    html(&first.format),
+                    members.len(),
+                    disk as f64 / 1048576.0,
+                    gpu as f64 / 1048576.0,
+                )
+            }
         };
         let _ = writeln!(
             page,
-            "<div class=\"card{}\"><b>{}</b>{status}<br><small>{} · {} {} · {:.2} MiB on disk, {:.2} MiB GPU · budget {}</small>\
-             <br><small>{}</small>{}<small>{}</small><img src=\"{}\" alt=\"{}\"></div>",
+            "<div class=\"card{}\">{label}<br><small>{}</small>{}<small>{}</small><img src=\"{}\" alt=\"{}\"></div>",
             if change == Some(Status::Changed) { " changed" } else { "" },
-            html(&asset.id),
-            html(&info.kind),
-            html(&info.format),
-            html(&dims),
-            info.byte_length as f64 / 1048576.0,
-            info.gpu_bytes as f64 / 1048576.0,
-            html(&budget_of(bundle, &asset.id)),
             html(&what),
             extra,
             if extra.is_empty() { "" } else { "new" },
             html(&file),
-            html(&asset.id),
+            html(&file),
         );
     }
     let removed: Vec<&str> = changes.iter().filter(|c| c.status == Status::Removed).map(|c| c.id.as_str()).collect();
@@ -370,4 +536,13 @@ pub fn write_sheet(bundle: &Bundle, old: Option<&Bundle>, out: &Path) -> Result<
     std::fs::write(&path, &page).map_err(|e| BakeError::io(&path, e))?;
     bytes += page.len() as u64;
     Ok(SheetReport { page: path, images, bytes, changed })
+}
+
+/// A card's change, as its heading says it.
+fn status_text(change: Option<Status>) -> &'static str {
+    match change {
+        Some(Status::Changed) => " — changed",
+        Some(Status::Added) => " — added",
+        _ => "",
+    }
 }
