@@ -205,7 +205,7 @@ fn a_tile_table_reads_back_as_the_entries_it_was_written_from() {
     let index = TileIndex::open(&dir.path("b")).unwrap();
     for a in &manifest.assets {
         let p = a.settings.tile().unwrap();
-        let part = a.id.strip_suffix(&hikage_bundle::tiles::tile_suffix(p.level, p.index)).unwrap();
+        let part = hikage_bundle::tiles::tile_part(&a.id, p).unwrap();
         assert_eq!(index.tile(part, p.level, p.index).as_ref(), Some(a));
     }
     assert!(index.tile("dem.horizon", 1, (8, 0)).is_none() && index.tile("dem.nothing", 0, (0, 0)).is_none());

@@ -306,8 +306,7 @@ impl Card {
 fn card_of(asset: &Asset, index: usize) -> Card {
     match asset.settings.tile() {
         Some(p) => {
-            let suffix = hikage_bundle::tiles::tile_suffix(p.level, p.index);
-            let part = asset.id.strip_suffix(&suffix).unwrap_or(&asset.id).to_string();
+            let part = hikage_bundle::tiles::tile_part(&asset.id, p).unwrap_or(&asset.id).to_string();
             Card::Map { part, level: p.level }
         }
         None => Card::Asset(index),

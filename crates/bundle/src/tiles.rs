@@ -101,6 +101,18 @@ pub fn tile_suffix(level: u32, index: (u32, u32)) -> String {
     }
 }
 
+/// The id of part `part`'s tile at `level`, column and row `index`: the part's id and
+/// [`tile_suffix`] (`terrain.horizon.3_5`, `terrain.horizon.L2.3_5`).
+pub fn tile_id(part: &str, level: u32, index: (u32, u32)) -> String {
+    format!("{part}{}", tile_suffix(level, index))
+}
+
+/// The part of tile `id` placed at `placement` (its id less the suffix), or `None` when the id
+/// does not end as that placement's tiles do.
+pub fn tile_part<'a>(id: &'a str, placement: &TilePlacement) -> Option<&'a str> {
+    id.strip_suffix(&tile_suffix(placement.level, placement.index))
+}
+
 /// The asset a part and a record make.
 fn expand(part: &Asset, r: &Record) -> Asset {
     let suffix = tile_suffix(r.level as u32, r.index);
@@ -340,7 +352,7 @@ fn check_records(set: &TileSet, bytes: &[u8]) -> Result<(), String> {
     let mut previous = String::new();
     for (i, r) in records().enumerate() {
         let part = &set.parts[r.part as usize];
-        let id = format!("{}{}", part.id, tile_suffix(r.level as u32, r.index));
+        let id = tile_id(&part.id, r.level as u32, r.index);
         if i > 0 && id <= previous {
             return Err(format!(
                 "record {i} (`{id}`) does not come after record {} (`{previous}`): records are sorted by id, and \
@@ -475,7 +487,7 @@ impl TileIndex {
     /// The entry of the tile payload `part` (a tile's id less its suffix, e.g.
     /// `terrain.horizon`) at `level`, column and row `index`; `None` when there is none.
     pub fn tile(&self, part: &str, level: u32, index: (u32, u32)) -> Option<Asset> {
-        let id = format!("{part}{}", tile_suffix(level, index));
+        let id = tile_id(part, level, index);
         self.sets.iter().find_map(|(set, bytes)| {
             let records = &bytes[HEADER_BYTES as usize..];
             let read = |i: u64| Ok(read_record(&records[(i * RECORD_BYTES) as usize..][..RECORD_BYTES as usize]));
@@ -526,7 +538,7 @@ pub fn find_tile(
     let mut header = [0u8; HEADER_BYTES as usize];
     file.read_exact(&mut header).map_err(|e| BundleError::io(&path, e))?;
     check_header(&header).map_err(bad)?;
-    let id = format!("{part}{}", tile_suffix(level as u32, index));
+    let id = tile_id(part, level as u32, index);
     let mut buf = [0u8; RECORD_BYTES as usize];
     let read = |i: u64| {
         file.seek(SeekFrom::Start(HEADER_BYTES + i * RECORD_BYTES)).map_err(|e| BundleError::io(&path, e))?;
@@ -549,7 +561,7 @@ fn search<E>(
         let mid = lo + (hi - lo) / 2;
         let r = read(mid)?;
         let part = set.parts.get(r.part as usize).ok_or_else(|| no_part(mid))?;
-        let found = format!("{}{}", part.id, tile_suffix(r.level as u32, r.index));
+        let found = tile_id(&part.id, r.level as u32, r.index);
         match found.as_str().cmp(id) {
             std::cmp::Ordering::Less => lo = mid + 1,
             std::cmp::Ordering::Greater => hi = mid,

@@ -33,3 +33,17 @@ impl fmt::Display for FormatVersion {
         write!(f, "{}.{}", self.major, self.minor)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::FormatVersion;
+
+    /// The format document's example manifest carries the version the code writes.
+    #[test]
+    fn the_format_document_shows_the_current_version() {
+        let doc = include_str!("../../../docs/bundle-format.md");
+        let FormatVersion { major, minor } = FormatVersion::CURRENT;
+        let shown = format!("format: (major: {major}, minor: {minor}),");
+        assert!(doc.contains(&shown), "docs/bundle-format.md does not show `{shown}`");
+    }
+}

@@ -22,17 +22,13 @@ use bevy_tasks::{AsyncComputeTaskPool, Task};
 use bevy_transform::components::{GlobalTransform, Transform};
 use hikage_bundle::{Asset as Entry, Limits, Manifest, TextureData};
 use hikage_runtime::horizon::{
-    BudgetShortfall, HorizonEncoding, MAX_TILE_SIDE, StreamOptions, StreamStats, TileKey, TileLayout, TilePlan,
-    apron_neighbours, heights_with_apron,
+    BudgetShortfall, HorizonEncoding, MAX_PENDING_TILES, MAX_TILE_SIDE, StreamOptions, StreamStats, TileKey,
+    TileLayout, TilePlan, apron_neighbours, heights_with_apron,
 };
 
 use crate::diagnostics::{Check, NamesBundle, Problems, SunShadowed};
 use crate::terrain::{TerrainExtension, TerrainMaterial, TerrainUniform};
 use crate::{HikageBundle, RegisteredLoader};
-
-/// Tiles being read at once at most: enough to keep the task pool busy, few enough that a camera
-/// turning round does not leave a long queue of tiles no longer wanted.
-const MAX_PENDING: usize = 8;
 
 /// Draws a terrain baked in tiles and levels of detail (a `Horizon` job with `tile` and
 /// `levels`), streamed around the first active 3D camera: put it on an entity with a
@@ -293,7 +289,7 @@ pub(crate) fn stream_terrain(
         // Requests, the coarsest level first, then in the plan's order, of what the budget holds.
         let affordable = plan.affordable(options.resident_bytes, |k| s.level_bytes[k.0 as usize]);
         for &key in affordable {
-            if s.pending.len() >= MAX_PENDING {
+            if s.pending.len() >= MAX_PENDING_TILES {
                 break;
             }
             let queued = s.pending.contains_key(&key) || s.ready.iter().any(|(k, _)| *k == key);

@@ -32,8 +32,8 @@ pub use sun_field::{FieldTerrain, MAX_SUN_FIELD_LEVELS, SunField, SunFieldOption
 pub use surface::{SurfaceFrame, SurfaceShadows, SurfaceUniform};
 pub use terrain::{Sun, TerrainExtent, TerrainFrame, TerrainShadows, TerrainUniform};
 pub use tile_plan::{
-    BudgetShortfall, TileKey, TileLayout, TileLevel, TileParts, TilePlan, apron_neighbours, heights_with_apron,
-    tile_device_bytes,
+    BudgetShortfall, MAX_PENDING_TILES, TileKey, TileLayout, TileLevel, TileParts, TilePlan, apron_neighbours,
+    heights_with_apron, tile_device_bytes,
 };
 
 /// WGSL of the horizon functions (no bindings); include it in a shader module. The components

@@ -14,17 +14,14 @@ use super::horizon_filterable;
 use super::sun_field::{FieldTerrain, FieldTile, SunFieldSource};
 use super::terrain::{TerrainBinding, TerrainExtent, TerrainFrame, terrain_layout, terrain_program};
 use super::tile_plan::{
-    BudgetShortfall, TileKey, TileLayout, TileParts, TilePlan, apron_neighbours, heights_with_apron, tile_device_bytes,
+    BudgetShortfall, MAX_PENDING_TILES, TileKey, TileLayout, TileParts, TilePlan, apron_neighbours, heights_with_apron,
+    tile_device_bytes,
 };
 use crate::draw::DrawOptions;
 use crate::error::RuntimeError;
 use crate::gpu;
 use crate::load::CpuAsset;
 use crate::upload::GpuBundle;
-
-/// Requests in flight to the loader thread at most: enough to keep it busy, few enough that a
-/// camera turning round does not leave a long queue of tiles no longer wanted.
-const MAX_PENDING: usize = 8;
 
 /// Largest side of a tile's textures: every backend holds a 3D texture of 2048 a side (D3D12,
 /// WebGPU's defaults), so a streamed terrain never needs more whatever the map's size.
@@ -330,7 +327,7 @@ impl TerrainStream {
         let level_bytes = &self.level_bytes;
         let affordable = plan.affordable(self.options.resident_bytes, |k| level_bytes[k.0 as usize]);
         for &key in affordable {
-            if self.pending.len() >= MAX_PENDING {
+            if self.pending.len() >= MAX_PENDING_TILES {
                 break;
             }
             let queued = self.pending.contains(&key) || self.ready.iter().any(|(k, _)| *k == key);
@@ -471,7 +468,7 @@ fn load_tile(index: &TileIndex, parts: &TileParts, key: Key) -> Result<Vec<CpuAs
     let mut out = Vec::new();
     for part in parts.all() {
         let (asset, mut texture) = read(part, (x, y))?.ok_or_else(|| RuntimeError::Asset {
-            asset: format!("{part}{}", hikage_bundle::tiles::tile_suffix(level, (x, y))),
+            asset: hikage_bundle::tiles::tile_id(part, level, (x, y)),
             message: "the tile table has no such tile".into(),
         })?;
         if part == parts.height {
@@ -515,18 +512,11 @@ fn upload(
     for a in assets {
         textures.insert(device, queue, a)?;
     }
-    let suffix = hikage_bundle::tiles::tile_suffix(key.0, (key.1, key.2));
-    let ao_id = ao.as_ref().map(|a| format!("{a}{suffix}"));
+    let id = |part: &str| hikage_bundle::tiles::tile_id(part, key.0, (key.1, key.2));
+    let ao_id = ao.as_deref().map(id);
     let level = &levels[key.0 as usize];
     let skirt = skirt_texels * level.texel.0.max(level.texel.1);
-    let binding = TerrainBinding::new(
-        device,
-        queue,
-        &textures,
-        (&format!("{horizon}{suffix}"), ao_id.as_deref()),
-        (skirt, 1),
-        layout,
-    )?;
+    let binding = TerrainBinding::new(device, queue, &textures, (&id(horizon), ao_id.as_deref()), (skirt, 1), layout)?;
     let bytes = textures.textures.values().map(|t| t.desc.total_bytes().unwrap_or(0)).sum();
     let offset = binder.tiles.offset(key);
     Ok(Resident { binding, _textures: textures, bytes, last_used: 0, offset })

@@ -31,6 +31,11 @@ impl TileParts {
     }
 }
 
+/// Tiles being read at once at most, by any streamer of a [`TilePlan`]: enough to keep a loader
+/// busy, few enough that a camera turning round does not leave a long queue of tiles no longer
+/// wanted.
+pub const MAX_PENDING_TILES: usize = 8;
+
 /// One level of a tiled map.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TileLevel {
@@ -126,7 +131,7 @@ impl TileLayout {
 
     /// Tile `key`'s id in part `part`.
     pub fn tile_id(part: &str, (level, x, y): TileKey) -> String {
-        format!("{part}{}", hikage_bundle::tiles::tile_suffix(level, (x, y)))
+        hikage_bundle::tiles::tile_id(part, level, (x, y))
     }
 
     /// Tile `key`'s first and last node in the map frame (world units along `u`, `v`).

@@ -242,9 +242,13 @@ impl HorizonJob {
         tile: Option<&TilePlacement>,
     ) -> Result<Vec<BakedAsset>, BakeError> {
         let o = &self.options;
-        let suffix = tile.map(|t| hikage_bundle::tiles::tile_suffix(t.level, t.index)).unwrap_or_default();
-        let horizon_id = format!("{}{suffix}", self.horizon_id());
-        let mut height = o.height_format.asset(&format!("{}{suffix}", self.height_id()), hf)?;
+        // A tile's ids are its parts' with its suffix.
+        let id = |part: String| match tile {
+            Some(t) => hikage_bundle::tiles::tile_id(&part, t.level, t.index),
+            None => part,
+        };
+        let horizon_id = id(self.horizon_id());
+        let mut height = o.height_format.asset(&id(self.height_id()), hf)?;
         if let Settings::Heightfield(s) = &mut height.settings {
             s.tile = tile.cloned();
         }
@@ -263,7 +267,7 @@ impl HorizonJob {
         let mut assets = vec![height];
         if o.ao {
             assets.push(BakedAsset {
-                id: format!("{}{suffix}", self.ao_id()),
+                id: id(self.ao_id()),
                 settings: Settings::AmbientOcclusion(AmbientOcclusionSettings {
                     horizon: horizon_id.clone(),
                     directions: o.directions,

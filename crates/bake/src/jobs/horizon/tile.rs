@@ -76,7 +76,7 @@ pub(super) fn tiles(job: &HorizonJob, size: u32, ctx: &JobContext) -> Result<Vec
                     )));
                 }
                 parts.push(Box::new(HorizonTileJob {
-                    id: format!("{}{}", job.id, hikage_bundle::tiles::tile_suffix(level, (tx, ty))),
+                    id: hikage_bundle::tiles::tile_id(&job.id, level, (tx, ty)),
                     job: job.clone(),
                     level,
                     index: (tx, ty),
