@@ -136,7 +136,7 @@ fn render(bundle: &Bundle, asset: &Asset, panels: usize) -> Result<Option<(Pictu
     Ok(Some(match &asset.settings {
         Settings::Heightfield(s) => {
             let v = t.channel_f32(0, 0);
-            let world = |x: usize, y: usize| s.height_offset + s.height_scale * v[y.min(h - 1) * w + x.min(w - 1)];
+            let world = |x: usize, y: usize| s.world_height(v[y.min(h - 1) * w + x.min(w - 1)]);
             let (sx, sy) = s.texel_size;
             let shade = |x: usize, y: usize| {
                 let du = (world(x + 1, y) - world(x.saturating_sub(1), y)) / (2.0 * sx);

@@ -286,7 +286,7 @@ fn texture_change(
         }
         (Settings::Heightfield(sa), Settings::Heightfield(sb)) => {
             let world = |t: &TextureData, s: &crate::HeightfieldSettings| -> Vec<f32> {
-                t.channel_f32(0, 0).iter().map(|v| s.height_offset + s.height_scale * v).collect()
+                t.channel_f32(0, 0).iter().map(|&v| s.world_height(v)).collect()
             };
             let (wa, wb) = (world(ta, sa), world(tb, sb));
             let (m, at) = largest(wa.iter().zip(&wb).map(|(p, q)| (p - q).abs() as f64));

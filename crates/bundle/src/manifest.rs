@@ -591,6 +591,14 @@ pub struct HeightfieldSettings {
     pub tile: Option<TilePlacement>,
 }
 
+impl HeightfieldSettings {
+    /// The world height of stored sample `v`: `height_offset + height_scale × v` (a normalised
+    /// integer sample as its 0–1 value).
+    pub fn world_height(&self, v: f32) -> f32 {
+        self.height_offset + self.height_scale * v
+    }
+}
+
 impl Manifest {
     /// An empty manifest of the current version.
     pub fn new() -> Self {

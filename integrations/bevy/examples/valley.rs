@@ -64,8 +64,7 @@ impl Valley {
         let hs = hf.asset.settings.heightfield().unwrap();
         let desc = hf.texture().unwrap().desc.clone();
         let (w, h) = (desc.width as usize, desc.height as usize);
-        let heights: Vec<f32> =
-            hf.texture().unwrap().to_f32(0).iter().map(|v| hs.height_offset + hs.height_scale * v).collect();
+        let heights: Vec<f32> = hf.texture().unwrap().to_f32(0).iter().map(|&v| hs.world_height(v)).collect();
         let (sx, sy) = settings.texel_size;
         let ground = |x: f32, z: f32| bilinear_height(&heights, (w, h), (sx, sy), (x, z)).unwrap_or(0.0);
         let (e, a) = (SUN.0.to_radians(), SUN.1.to_radians());

@@ -21,7 +21,7 @@ pub fn grid_mesh(heights: &TextureData, settings: &HeightfieldSettings) -> Resul
     let samples = heights.channel_f32(0, 0);
     let world = |i: isize, j: isize| {
         let (i, j) = (i.clamp(0, w as isize - 1) as usize, j.clamp(0, h as isize - 1) as usize);
-        settings.height_offset + settings.height_scale * samples[j * w + i]
+        settings.world_height(samples[j * w + i])
     };
     Ok(surface((w, h), settings.texel_size, world, 0.0, RenderAssetUsages::default()))
 }
@@ -37,9 +37,7 @@ pub fn tile_mesh(apron: &TextureData, settings: &HeightfieldSettings, skirt: f32
         return Err(format!("a terrain tile needs at least 2×2 texels, this one is {}×{}", aw - 2, ah - 2));
     }
     let samples = apron.channel_f32(0, 0);
-    let world = |i: isize, j: isize| {
-        settings.height_offset + settings.height_scale * samples[(j + 1) as usize * aw + (i + 1) as usize]
-    };
+    let world = |i: isize, j: isize| settings.world_height(samples[(j + 1) as usize * aw + (i + 1) as usize]);
     let (w, h) = (aw - 2, ah - 2);
     let (low, high) = (0..h as isize)
         .flat_map(|j| (0..w as isize).map(move |i| (i, j)))

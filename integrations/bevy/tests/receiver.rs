@@ -81,7 +81,7 @@ fn a_receiver_is_shadowed_by_the_far_terrain_as_the_cpu_reference_says() {
     let map = HorizonMap::new(asset.texture().unwrap(), asset.asset.settings.horizon().unwrap(), true).unwrap();
     let heights = cpu.asset("terrain.height").unwrap().texture().unwrap().to_f32(0);
     let settings = cpu.asset("terrain.height").unwrap().asset.settings.heightfield().unwrap().clone();
-    let heights: Vec<f32> = heights.iter().map(|v| settings.height_offset + settings.height_scale * v).collect();
+    let heights: Vec<f32> = heights.iter().map(|&v| settings.world_height(v)).collect();
     let bump_sun = glam::Vec3::new(sun.x, sun.z, sun.y);
     let radius = 0.5 * SunDisk::EARTH.angular_size;
     let reach = (ex).hypot(ez);
@@ -247,7 +247,7 @@ fn a_receiver_composes_with_the_cascades_without_a_seam() {
         .unwrap()
         .to_f32(0)
         .iter()
-        .map(|v| settings.height_offset + settings.height_scale * v)
+        .map(|&v| settings.world_height(v))
         .collect();
     let bump_sun = glam::Vec3::new(sun.x, sun.z, sun.y);
     let radius = 0.5 * SunDisk::EARTH.angular_size;

@@ -400,7 +400,7 @@ impl TerrainBinding {
         let skirts = if skirt > 0.0 { 12 * 2 * ((w - 1) + (h - 1)) } else { 0 };
         let vertices = 6 * (w - 1) * (h - 1) + skirts;
         let (lo, hi) = heights.range.unwrap_or((0.0, 0.0));
-        let world = |v: f32| hf.height_offset + hf.height_scale * v;
+        let world = |v: f32| hf.world_height(v);
         let (low, high) = (world(lo).min(world(hi)), world(lo).max(world(hi)));
         let extent = TerrainExtent::new((w, h), settings.texel_size, (low, high));
         let mut assets = vec![horizon.to_string(), settings.heightfield.clone()];
