@@ -380,7 +380,10 @@ impl SunField {
                 ((Vec2::new(cam.x, cam.z) / t).floor() - Vec2::splat((side / 2) as f32)) * t
             })
             .collect();
-        let tiles: Vec<(TileKey, wgpu::BindGroup)> = source.tiles.iter().map(|t| (t.key, t.group.clone())).collect();
+        // The pieces as a set: a stream lists the same tiles in another order as the camera moves.
+        let mut tiles: Vec<(TileKey, wgpu::BindGroup)> =
+            source.tiles.iter().map(|t| (t.key, t.group.clone())).collect();
+        tiles.sort_by_key(|t| t.0);
         // Levels to build: all of them for a new sun or new pieces of terrain; else the finest
         // ones up to the coarsest that moved (a level's walk reads the coarser levels).
         let build = match &self.built {
