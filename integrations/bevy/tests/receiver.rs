@@ -53,35 +53,11 @@ fn a_receiver_is_shadowed_by_the_far_terrain_as_the_cpu_reference_says() {
     // The terrain shadows the sheet but is not drawn over it.
     let terrain =
         app.world().spawn((HorizonTerrain::new(bundle, "terrain.horizon"), NotShadowCaster, Visibility::Hidden)).id();
-    let sheet = app.world().resource_mut::<Assets<Mesh>>().add(Plane3d::default().mesh().size(ex, ez));
-    let water = app
-        .world()
-        .spawn((
-            Mesh3d(sheet),
-            Transform::from_xyz(ex / 2.0, WATER, ez / 2.0),
-            NotShadowCaster,
-            TerrainReceiver::new(terrain),
-        ))
-        .id();
-    let built = app.update_until(600, |w| w.get::<MeshMaterial3d<TerrainReceiverMaterial>>(water).is_some());
-    assert!(built, "the receiver was not built: {:?}", app.world().get::<HikageError>(water));
+    let water = spawn_sheet(&mut app, terrain, (ex, ez), WATER, StandardMaterial::default());
     let shadowed = app.capture_settled(&target);
-    let material = app.world().get::<MeshMaterial3d<TerrainReceiverMaterial>>(water).unwrap().0.clone();
-    app.world()
-        .resource_mut::<Assets<TerrainReceiverMaterial>>()
-        .get_mut(&material)
-        .unwrap()
-        .extension
-        .uniform
-        .shadow = 0;
+    shadow_off(&mut app, water);
     let open = app.capture_settled(&target);
-
-    let cpu = CpuBundle::read_prefix(&dir.join("bundle"), "terrain.").unwrap();
-    let asset = cpu.asset("terrain.horizon").unwrap();
-    let map = HorizonMap::new(asset.texture().unwrap(), asset.asset.settings.horizon().unwrap(), true).unwrap();
-    let heights = cpu.asset("terrain.height").unwrap().texture().unwrap().to_f32(0);
-    let settings = cpu.asset("terrain.height").unwrap().asset.settings.heightfield().unwrap().clone();
-    let heights: Vec<f32> = heights.iter().map(|&v| settings.world_height(v)).collect();
+    let (map, heights) = map_and_heights(&dir, "terrain");
     let bump_sun = glam::Vec3::new(sun.x, sun.z, sun.y);
     let radius = 0.5 * SunDisk::EARTH.angular_size;
     let reach = (ex).hypot(ez);
@@ -122,6 +98,41 @@ fn a_receiver_is_shadowed_by_the_far_terrain_as_the_cpu_reference_says() {
     assert!(share(same) >= 0.99, "{:.2}% agree with the CPU reference", 100.0 * share(same));
     assert!(share(marched) >= share(rule) - 0.005, "{:.2}% agree with the march", 100.0 * share(marched));
     assert!(share(rule) >= 0.96, "the rule agrees with the march on {:.2}%", 100.0 * share(rule));
+}
+
+/// A sheet of water `ex` × `ez` at height `y` over the terrain on entity `terrain`, a
+/// `TerrainReceiver` over `base`, built: its entity.
+fn spawn_sheet(
+    app: &mut common::Headless,
+    terrain: Entity,
+    (ex, ez): (f32, f32),
+    y: f32,
+    base: StandardMaterial,
+) -> Entity {
+    let sheet = app.world().resource_mut::<Assets<Mesh>>().add(Plane3d::default().mesh().size(ex, ez));
+    let receiver = TerrainReceiver::new(terrain).with_base(base);
+    let water =
+        app.world().spawn((Mesh3d(sheet), Transform::from_xyz(ex / 2.0, y, ez / 2.0), NotShadowCaster, receiver)).id();
+    let built = app.update_until(600, |w| w.get::<MeshMaterial3d<TerrainReceiverMaterial>>(water).is_some());
+    assert!(built, "the receiver was not built: {:?}", app.world().get::<HikageError>(water));
+    water
+}
+
+/// Turns receiver `water`'s terrain shadow off.
+fn shadow_off(app: &mut common::Headless, water: Entity) {
+    let material = app.world().get::<MeshMaterial3d<TerrainReceiverMaterial>>(water).unwrap().0.clone();
+    let mut materials = app.world().resource_mut::<Assets<TerrainReceiverMaterial>>();
+    materials.get_mut(&material).unwrap().extension.uniform.shadow = 0;
+}
+
+/// Job `job`'s horizon map (sampled as the GPU does) and world heights, from the bundle in `dir`.
+fn map_and_heights(dir: &std::path::Path, job: &str) -> (HorizonMap, Vec<f32>) {
+    let cpu = CpuBundle::read_prefix(&dir.join("bundle"), &format!("{job}.")).unwrap();
+    let asset = cpu.asset(&format!("{job}.horizon")).unwrap();
+    let map = HorizonMap::new(asset.texture().unwrap(), asset.asset.settings.horizon().unwrap(), true).unwrap();
+    let heights = cpu.asset(&format!("{job}.height")).unwrap();
+    let settings = heights.asset.settings.heightfield().unwrap();
+    (map, heights.texture().unwrap().to_f32(0).iter().map(|&v| settings.world_height(v)).collect())
 }
 
 /// A receiver says what is wrong: a terrain entity that is none, a streamed terrain, no mesh.
@@ -204,51 +215,20 @@ fn a_receiver_composes_with_the_cascades_without_a_seam() {
     );
     let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
     let terrain = app.world().spawn(HorizonTerrain::new(bundle, "small.horizon")).id();
-    let sheet = app.world().resource_mut::<Assets<Mesh>>().add(Plane3d::default().mesh().size(ex, ez));
     let blue = StandardMaterial {
         base_color: Color::srgb(0.1, 0.2, 0.9),
         perceptual_roughness: 1.0,
         reflectance: 0.0,
         ..default()
     };
-    let receiver = app
-        .world()
-        .spawn((
-            Mesh3d(sheet),
-            Transform::from_xyz(ex / 2.0, water, ez / 2.0),
-            NotShadowCaster,
-            TerrainReceiver::new(terrain).with_base(blue),
-        ))
-        .id();
-    let built = app.update_until(600, |w| w.get::<MeshMaterial3d<TerrainReceiverMaterial>>(receiver).is_some());
-    assert!(built, "the receiver was not built: {:?}", app.world().get::<HikageError>(receiver));
+    let receiver = spawn_sheet(&mut app, terrain, (ex, ez), water, blue);
     // Both shadows; the cascades' alone; none (the water's full light).
     let both = app.capture_settled(&target);
-    let material = app.world().get::<MeshMaterial3d<TerrainReceiverMaterial>>(receiver).unwrap().0.clone();
-    app.world()
-        .resource_mut::<Assets<TerrainReceiverMaterial>>()
-        .get_mut(&material)
-        .unwrap()
-        .extension
-        .uniform
-        .shadow = 0;
+    shadow_off(&mut app, receiver);
     let cascades = app.capture_settled(&target);
     app.world().get_mut::<DirectionalLight>(light).unwrap().shadow_maps_enabled = false;
     let open = app.capture_settled(&target);
-
-    let cpu = CpuBundle::read_prefix(&dir.join("bundle"), "small.").unwrap();
-    let asset = cpu.asset("small.horizon").unwrap();
-    let map = HorizonMap::new(asset.texture().unwrap(), asset.asset.settings.horizon().unwrap(), true).unwrap();
-    let settings = cpu.asset("small.height").unwrap().asset.settings.heightfield().unwrap().clone();
-    let heights: Vec<f32> = cpu
-        .asset("small.height")
-        .unwrap()
-        .texture()
-        .unwrap()
-        .to_f32(0)
-        .iter()
-        .map(|&v| settings.world_height(v))
-        .collect();
+    let (map, heights) = map_and_heights(&dir, "small");
     let bump_sun = glam::Vec3::new(sun.x, sun.z, sun.y);
     let radius = 0.5 * SunDisk::EARTH.angular_size;
     let reach = ex.hypot(ez);
