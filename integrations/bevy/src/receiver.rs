@@ -182,8 +182,8 @@ pub(crate) fn attach(
         let (Some(terrain), Some(placed)) = (terrain, placed) else {
             let message = if streamed {
                 format!(
-                    "terrain receiver {entity}: entity {} is a StreamedTerrain, whose receivers are not drawn yet: \
-                     give them a HorizonTerrain of the map's coarsest level",
+                    "terrain receiver {entity}: entity {} is a StreamedTerrain, whose receivers hikage-bevy does not \
+                     draw yet (hikage-runtime's SunField does, in a wgpu renderer): name a HorizonTerrain",
                     receiver.terrain
                 )
             } else {
