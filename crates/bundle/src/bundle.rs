@@ -234,12 +234,8 @@ pub fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(String, S
     // Which ids and files repeat an earlier one's: borrowed and hashed, since a tiled map's
     // manifest lists tens of thousands of assets; the checks of each asset alone then run on
     // every core.
-    let mut ids = std::collections::HashSet::with_capacity(manifest.assets.len());
-    // Every id's kind, for the assets an asset names (the first of a repeated id).
+    // Every id's kind (the first of a repeated id's), for the assets an asset names.
     let mut kinds = std::collections::HashMap::with_capacity(manifest.assets.len());
-    for a in &manifest.assets {
-        kinds.entry(a.id.as_str()).or_insert(a.kind);
-    }
     // Assets with identical payloads may share a file (format 1.10); other bytes may not.
     let mut files = std::collections::HashMap::with_capacity(manifest.assets.len());
     let repeats: Vec<(bool, bool)> = manifest
@@ -248,7 +244,9 @@ pub fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(String, S
         .map(|a| {
             let contents = (a.blake3.as_str(), a.byte_length);
             let clash = *files.entry(a.file.as_str()).or_insert(contents) != contents;
-            (!ids.insert(a.id.as_str()), clash)
+            let repeated = kinds.contains_key(a.id.as_str());
+            kinds.entry(a.id.as_str()).or_insert(a.kind);
+            (repeated, clash)
         })
         .collect();
     let per_asset =

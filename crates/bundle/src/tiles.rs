@@ -308,14 +308,9 @@ pub(crate) fn expected_bytes(set: &TileSet, max_records: u64) -> Result<u64, Str
 pub(crate) fn unpack(set: &TileSet, bytes: &[u8], max_records: u64) -> Result<Vec<Asset>, String> {
     check_table(set, bytes, max_records)?;
     check_records(set, bytes)?;
-    let records = bytes[HEADER_BYTES as usize..].chunks_exact(RECORD_BYTES as usize);
-    records
-        .enumerate()
-        .map(|(i, chunk)| {
-            let r = read_record(chunk);
-            record_part(set, i, &r).map(|part| expand(part, &r))
-        })
-        .collect()
+    // Every record names a part of the set: `check_records` said so.
+    let records = bytes[HEADER_BYTES as usize..].chunks_exact(RECORD_BYTES as usize).map(read_record);
+    Ok(records.map(|r| expand(&set.parts[r.part as usize], &r)).collect())
 }
 
 /// The records of a table whose bytes passed [`check_table`], against what a reader relies on:
@@ -460,12 +455,12 @@ impl TileIndex {
             check_table(&set, &bytes, room).map_err(bad)?;
             check_records(&set, &bytes).map_err(bad)?;
             let mut first: Vec<Option<Asset>> = vec![None; set.parts.len()];
-            for (i, chunk) in bytes[HEADER_BYTES as usize..].chunks_exact(RECORD_BYTES as usize).enumerate() {
+            // Every record names a part of the set: `check_records` said so.
+            for chunk in bytes[HEADER_BYTES as usize..].chunks_exact(RECORD_BYTES as usize) {
                 let r = read_record(chunk);
-                let part = record_part(&set, i, &r).map_err(bad)?;
                 let slot = &mut first[r.part as usize];
                 if slot.is_none() {
-                    *slot = Some(expand(part, &r));
+                    *slot = Some(expand(&set.parts[r.part as usize], &r));
                 }
             }
             let mut sample = crate::Manifest::new();

@@ -26,6 +26,9 @@ pub const MAX_SUN_FIELD_LEVELS: u32 = 8;
 /// (4) and the two thresholds receivers read (8).
 const TEXEL_BYTES: u64 = 28;
 
+/// Dispatches a new field has room for; it grows as a stream's tiles need.
+const INITIAL_PASSES: u64 = 64;
+
 /// Alignment of a dynamic uniform offset on every backend.
 const PASS_STRIDE: u64 = 256;
 
@@ -178,7 +181,6 @@ pub struct SunField {
     hops: wgpu::TextureView,
     ground: wgpu::TextureView,
     thresholds: wgpu::TextureView,
-    fill_layout: wgpu::BindGroupLayout,
     fill_group: wgpu::BindGroup,
     fill: wgpu::ComputePipeline,
     walk_group: wgpu::BindGroup,
@@ -244,7 +246,7 @@ impl SunField {
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             });
-            let passes = pass_buffer(device, 64);
+            let passes = pass_buffer(device, INITIAL_PASSES);
             let fill_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("hikage sun field fill"),
                 entries: &[
@@ -271,8 +273,8 @@ impl SunField {
                     gpu::texture_entry(1, wgpu::TextureViewDimension::D2Array, false),
                 ],
             });
-            let fill_group = fill_group(device, &fill_layout, (&uniform, &passes), (&hops, &ground));
-            let walk_group = walk_group(device, &walk_layout, (&uniform, &passes), [&hops, &ground, &thresholds]);
+            let fill_group = pass_group(device, &fill_layout, (&uniform, &passes), &[&hops, &ground]);
+            let walk_group = pass_group(device, &walk_layout, (&uniform, &passes), &[&hops, &ground, &thresholds]);
             let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("hikage sun field"),
                 layout: &layout,
@@ -314,11 +316,10 @@ impl SunField {
                 directions: source.directions,
                 uniform,
                 passes,
-                pass_capacity: 64,
+                pass_capacity: INITIAL_PASSES,
                 hops,
                 ground,
                 thresholds,
-                fill_layout,
                 fill_group,
                 fill,
                 walk_group,
@@ -503,11 +504,11 @@ impl SunField {
         }
         self.pass_capacity = passes.next_power_of_two();
         self.passes = pass_buffer(device, self.pass_capacity);
-        self.fill_group =
-            fill_group(device, &self.fill_layout, (&self.uniform, &self.passes), (&self.hops, &self.ground));
-        let walk_layout = self.walk.get_bind_group_layout(1);
-        let views = [&self.hops, &self.ground, &self.thresholds];
-        self.walk_group = walk_group(device, &walk_layout, (&self.uniform, &self.passes), views);
+        let buffers = (&self.uniform, &self.passes);
+        let fill = self.fill.get_bind_group_layout(1);
+        self.fill_group = pass_group(device, &fill, buffers, &[&self.hops, &self.ground]);
+        let walk = self.walk.get_bind_group_layout(1);
+        self.walk_group = pass_group(device, &walk, buffers, &[&self.hops, &self.ground, &self.thresholds]);
     }
 }
 
@@ -548,47 +549,31 @@ fn pass_binding(passes: &wgpu::Buffer) -> wgpu::BindingResource<'_> {
     })
 }
 
-/// The fill pass's bind group.
-fn fill_group(
-    device: &wgpu::Device,
-    layout: &wgpu::BindGroupLayout,
-    (uniform, passes): (&wgpu::Buffer, &wgpu::Buffer),
-    (hops, ground): (&wgpu::TextureView, &wgpu::TextureView),
-) -> wgpu::BindGroup {
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("hikage sun field fill"),
-        layout,
-        entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 1, resource: pass_binding(passes) },
-            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(hops) },
-            wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(ground) },
-        ],
-    })
-}
-
 /// `entry` for the build passes alone.
 fn compute(entry: wgpu::BindGroupLayoutEntry) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry { visibility: wgpu::ShaderStages::COMPUTE, ..entry }
 }
 
-/// The walk pass's bind group: it reads `hops` and `ground` and writes `thresholds`.
-fn walk_group(
+/// A build pass's bind group: the field's uniform, the dispatch parameters, then `views` (the
+/// fill writes hops and ground; the walk reads them and writes the thresholds).
+fn pass_group(
     device: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,
     (uniform, passes): (&wgpu::Buffer, &wgpu::Buffer),
-    [hops, ground, thresholds]: [&wgpu::TextureView; 3],
+    views: &[&wgpu::TextureView],
 ) -> wgpu::BindGroup {
+    let mut entries = vec![
+        wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
+        wgpu::BindGroupEntry { binding: 1, resource: pass_binding(passes) },
+    ];
+    for (k, view) in views.iter().enumerate() {
+        entries
+            .push(wgpu::BindGroupEntry { binding: 2 + k as u32, resource: wgpu::BindingResource::TextureView(view) });
+    }
     device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("hikage sun field walk"),
+        label: Some("hikage sun field pass"),
         layout,
-        entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 1, resource: pass_binding(passes) },
-            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(hops) },
-            wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(ground) },
-            wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(thresholds) },
-        ],
+        entries: &entries,
     })
 }
 
