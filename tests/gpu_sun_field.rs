@@ -10,11 +10,14 @@ use std::path::PathBuf;
 use hikage_runtime::glam::camera::rh::proj::directx;
 use hikage_runtime::glam::camera::rh::view::look_at_mat4;
 use hikage_runtime::glam::{Vec2, Vec3};
+use hikage_runtime::hikage_bundle::tiles::TileIndex;
 use hikage_runtime::horizon::reference::{HorizonMap, horizon_raised_sun_visible, horizon_sun_visible};
 use hikage_runtime::horizon::{
-    StreamOptions, Sun, SunField, SunFieldOptions, SunFieldSource, TerrainFrame, TerrainShadows, TerrainStream,
+    FieldMap, FieldTileTextures, HorizonEncoding, StreamOptions, Sun, SunField, SunFieldOptions, SunFieldSource,
+    SunFieldTiles, TerrainFrame, TerrainShadows, TerrainStream, TerrainUniform, TileLayout, apron_neighbours,
+    heights_with_apron,
 };
-use hikage_runtime::{CpuBundle, DrawOptions, GpuBundle, wgpu};
+use hikage_runtime::{CpuAsset, CpuBundle, DrawOptions, GpuBundle, PayloadData, wgpu};
 use hikage_scenes::headless::{COLOR_FORMAT, DEPTH_FORMAT, Headless, VISIBILITY_FORMAT, depth_test, plain_target};
 
 use hikage_devkit::brute_force::{bilinear_height, raised_shadow_height, sun_shadow_height};
@@ -448,4 +451,95 @@ fn the_terrains_own_pixels_are_unchanged_by_a_field() {
     let after = g.render((256, 256), wgpu::Color::BLACK, |pass| stream.draw(pass));
     assert!(before.visibility.iter().filter(|v| v[1] > 0.5).count() > 1000, "the terrain is in view");
     assert!(before == after, "the terrain's pixels changed");
+}
+
+/// An engine that keeps a stream's tiles itself (hikage-bevy) and hands their textures to a
+/// field through `SunFieldTiles` gets the field of the runtime's own stream: level 0 everywhere,
+/// each tile's horizon uploaded as baked and its heights (with the neighbours' apron) as 32-bit
+/// floats, the receivers' pixels equal to those of the stream's field at every sun.
+#[test]
+fn an_engines_own_tiles_give_the_streams_field() {
+    let Some(g) = gpu("an_engines_own_tiles_give_the_streams_field") else { return };
+    let (dir, heights) = baked();
+    let boxes = receivers(heights);
+    let all_level_0 =
+        StreamOptions { detail: 1e9, resident_bytes: 8 << 30, upload_bytes: 8 << 30, ..StreamOptions::default() };
+    let stream = settled_stream(&g, dir, all_level_0);
+    let index = TileIndex::open(dir).unwrap();
+    let layout = TileLayout::new("dem", |part, level, xy| index.tile(part, level, xy)).unwrap();
+    let level = &layout.levels[0];
+    let read = |part: &str, (x, y): (u32, u32)| {
+        let asset = index.tile(part, 0, (x, y))?;
+        let texture = index.read_texture(&asset).unwrap();
+        Some((asset, texture))
+    };
+    let mut textures = GpuBundle::default();
+    let mut views = Vec::new();
+    for y in 0..level.grid.1 {
+        for x in 0..level.grid.0 {
+            let key = (0, x, y);
+            let (height, own) = read(&layout.parts.height, (x, y)).unwrap();
+            let sides = apron_neighbours(key).map(|n| n.and_then(|(_, nx, ny)| read(&layout.parts.height, (nx, ny))));
+            let apron = heights_with_apron(&own, &sides.map(|s| s.map(|(_, t)| t)));
+            let (w, h) = (apron.desc.width, apron.desc.height);
+            let heights_view = float_texture(&g, (w, h), &apron.to_f32(0));
+            let (horizon, map) = read(&layout.parts.horizon, (x, y)).unwrap();
+            let settings = horizon.settings.horizon().unwrap().clone();
+            let hf = height.settings.heightfield().unwrap();
+            let constants = TerrainUniform {
+                texel_size: [settings.texel_size.0, settings.texel_size.1],
+                height_scale: hf.height_scale,
+                height_offset: hf.height_offset,
+                size: [w - 2, h - 2],
+                encoding: HorizonEncoding::new(map.desc.format, &settings),
+                apron: 1,
+                ..hikage_runtime::bytemuck::Zeroable::zeroed()
+            };
+            textures
+                .insert(&g.device, &g.queue, &CpuAsset { asset: horizon.clone(), payload: PayloadData::Texture(map) })
+                .unwrap();
+            views.push((key, horizon.id, heights_view, constants, Vec2::from(layout.offset(key))));
+        }
+    }
+    let map = FieldMap { size: Vec2::splat(N as f32 * TEXEL), texel: Vec2::splat(TEXEL), directions: 32, reach: REACH };
+    let mut tiles = SunFieldTiles::new(&g.device, &g.queue, map);
+    let drawn = views.iter().map(|(key, id, heights, constants, offset)| FieldTileTextures {
+        key: *key,
+        offset: *offset,
+        horizon: &textures.texture(id).unwrap().view,
+        heights,
+        constants: *constants,
+    });
+    tiles.set(&g.device, &g.queue, drawn);
+    for &angles in &SUNS {
+        let s = sun(angles);
+        let a = field_pixels(&g, &stream, &boxes, s);
+        let b = field_pixels(&g, &tiles, &boxes, s);
+        assert_eq!(a.len(), b.len(), "the same boxes drawn");
+        let differ = a.iter().zip(&b).filter(|(a, b)| (a.1 - b.1).abs() > 1e-6).count();
+        eprintln!(
+            "sun {angles:?}: {differ} of {} receiver pixels differ between the stream and the engine's tiles",
+            a.len()
+        );
+        assert_eq!(differ, 0, "sun {angles:?}");
+    }
+}
+
+/// A 2D `R32Float` texture of `values`, `w`×`h`, as an engine would upload heights.
+fn float_texture(g: &Headless, (w, h): (u32, u32), values: &[f32]) -> wgpu::TextureView {
+    let size = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
+    let texture = g.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("engine heights"),
+        size,
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::R32Float,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let layout = wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4 * w), rows_per_image: None };
+    g.queue.write_texture(texture.as_image_copy(), &bytes, layout, size);
+    texture.create_view(&Default::default())
 }

@@ -115,7 +115,7 @@ pub use wgpu;
 #[cfg(test)]
 mod wgsl_tests {
     use crate::hair::HairUniform;
-    use crate::horizon::sun_field::{COMMON_WGSL, FILL_WGSL, RECEIVER_WGSL, SunFieldPass, SunFieldUniform, WALK_WGSL};
+    use crate::horizon::sun_field::{COMMON_WGSL, FILL_WGSL, SUN_FIELD_WGSL, SunFieldPass, SunFieldUniform, WALK_WGSL};
     use crate::horizon::{HorizonEncoding, SurfaceUniform, TerrainUniform};
     use crate::relief::{ReliefMaterialUniform, ReliefUniform};
     use crate::scene::{SCENE_WGSL, SceneUniform};
@@ -131,7 +131,7 @@ mod wgsl_tests {
             ("hair", crate::hair::HAIR_WGSL.to_string()),
             ("hair skin", crate::hair::HAIR_SKIN_WGSL.to_string()),
             ("relief material", format!("{SCENE_WGSL}\n{relief}\n{}", include_str!("shaders/relief_material.wgsl"))),
-            ("sun field", format!("{COMMON_WGSL}\n{RECEIVER_WGSL}")),
+            ("sun field", SUN_FIELD_WGSL.to_string()),
             (
                 "sun field fill",
                 format!(

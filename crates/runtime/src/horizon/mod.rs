@@ -18,6 +18,7 @@
 //! - a light on a mesh enters the bump frame through the seed's frame `(P_u, P_v, N/|N|^½)`
 //!   scaled so one tile of the map spans its world size ([`reference::horizon_surface_light`]).
 
+mod field_tiles;
 pub mod reference;
 mod stream;
 pub(crate) mod sun_field;
@@ -27,8 +28,11 @@ mod tile_plan;
 
 use hikage_bundle::{EdgeMode, HorizonSettings, TextureFormat};
 
+pub use field_tiles::{FieldMap, FieldTileTextures, SunFieldTiles};
 pub use stream::{MAX_TILE_SIDE, StreamOptions, StreamStats, TerrainStream};
-pub use sun_field::{FieldTerrain, MAX_SUN_FIELD_LEVELS, SunField, SunFieldOptions, SunFieldSource, SunFieldStats};
+pub use sun_field::{
+    FieldTerrain, MAX_SUN_FIELD_LEVELS, SUN_FIELD_WGSL, SunField, SunFieldOptions, SunFieldSource, SunFieldStats,
+};
 pub use surface::{SurfaceFrame, SurfaceShadows, SurfaceUniform};
 pub use terrain::{Sun, TerrainExtent, TerrainFrame, TerrainShadows, TerrainUniform};
 pub use tile_plan::{

@@ -12,12 +12,16 @@ use crate::scene::SCENE_WGSL;
 
 /// What the field's receivers and its build passes share: the uniform and the level lookups.
 pub(crate) const COMMON_WGSL: &str = include_str!("../shaders/sun_field_common.wgsl");
-/// The receivers' bindings and `sun_field_visibility`.
-pub(crate) const RECEIVER_WGSL: &str = include_str!("../shaders/sun_field.wgsl");
 /// The first build pass: ground and horizon points from the terrain's pieces.
 pub(crate) const FILL_WGSL: &str = include_str!("../shaders/sun_field_fill.wgsl");
 /// The second build pass: the walk over the first's texels.
 pub(crate) const WALK_WGSL: &str = include_str!("../shaders/sun_field_walk.wgsl");
+
+/// The receivers' WGSL with its bindings at `@group(0)` (binding 0 the uniform, 1 the
+/// thresholds): `sun_field_visibility(world: vec3<f32>) -> f32`. For an engine whose material
+/// system places bindings itself; a wgpu game takes [`SunField::wgsl`], at the group it chose.
+pub const SUN_FIELD_WGSL: &str =
+    concat!(include_str!("../shaders/sun_field_common.wgsl"), "\n", include_str!("../shaders/sun_field.wgsl"));
 
 /// Levels a field holds at most (the uniform's array).
 pub const MAX_SUN_FIELD_LEVELS: u32 = 8;
@@ -311,7 +315,7 @@ impl SunField {
             );
             SunField {
                 options,
-                wgsl: gpu::at_group(&format!("{COMMON_WGSL}\n{RECEIVER_WGSL}"), options.group),
+                wgsl: gpu::at_group(SUN_FIELD_WGSL, options.group),
                 texel,
                 directions: source.directions,
                 uniform,
@@ -347,6 +351,13 @@ impl SunField {
     /// The receivers' bind group (the field's uniform and thresholds).
     pub fn bind_group(&self) -> &wgpu::BindGroup {
         &self.bind_group
+    }
+
+    /// The receivers' two bindings, for an engine that builds its own bind group: binding 0, the
+    /// uniform buffer; binding 1, the thresholds (a 2D array of `Rg32Float`, not filterable).
+    /// Both live as long as the field, and [`update`](SunField::update) rewrites them in place.
+    pub fn bindings(&self) -> (&wgpu::Buffer, &wgpu::TextureView) {
+        (&self.uniform, &self.thresholds)
     }
 
     /// Device memory the field holds, bytes: 28 a texel, `side² × levels` texels.
