@@ -46,6 +46,7 @@ mod attach;
 pub mod attributes;
 pub mod curved;
 mod diagnostics;
+mod field;
 mod grid;
 pub mod hair;
 pub mod light_fit;
@@ -67,6 +68,7 @@ use bevy_reflect::TypePath;
 
 pub use curved::{CurvedExtension, CurvedMaterial, CurvedSurface};
 pub use diagnostics::HikageError;
+pub use field::{FieldReceiverExtension, FieldReceiverMaterial};
 pub use grid::GRID_LABEL;
 pub use hair::{HairDraw, HairReceiver, HairReceiverMaterial, HairShadowMaps, HairStrands, HairStyle};
 pub use hikage_bundle::{Asset as ManifestAsset, Manifest, Settings};
@@ -91,9 +93,11 @@ impl Plugin for HikagePlugin {
             MaterialPlugin::<ReliefMaterial>::default(),
             MaterialPlugin::<CurvedMaterial>::default(),
             MaterialPlugin::<TerrainReceiverMaterial>::default(),
+            MaterialPlugin::<FieldReceiverMaterial>::default(),
         ));
         shaders::register(app);
         hair::build(app);
+        field::build(app);
         app.add_systems(
             Update,
             (

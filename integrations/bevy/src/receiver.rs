@@ -1,7 +1,8 @@
-//! The terrain's far shadows on what stands on it: [`TerrainReceiver`] draws its mesh with
-//! [`TerrainReceiverMaterial`], Bevy's `StandardMaterial` whose sun is hidden wherever the
-//! terrain of a [`HorizonTerrain`] hides it — a house or a tree kilometres away in a mountain's
-//! shadow at sunset, far past Bevy's cascades.
+//! The terrain's far shadows on what stands on it: [`TerrainReceiver`] draws its mesh with Bevy's
+//! `StandardMaterial` whose sun is hidden wherever the terrain hides it — a house or a tree
+//! kilometres away in a mountain's shadow at sunset, far past Bevy's cascades: with
+//! [`TerrainReceiverMaterial`] over a [`HorizonTerrain`], with
+//! [`FieldReceiverMaterial`] over a [`StreamedTerrain`].
 
 use bevy_asset::{Asset, AssetEvent, Assets, Handle};
 use bevy_ecs::prelude::*;
@@ -15,18 +16,24 @@ use bevy_transform::components::GlobalTransform;
 use hikage_bundle::AssetKind;
 
 use crate::diagnostics::{Check, Problems, ShadesOwnMesh, SunShadowed};
-use crate::stream::StreamedTerrain;
+use crate::field::{FieldReceiverExtension, FieldReceiverMaterial};
+use crate::stream::{StreamedTerrain, Streaming};
 use crate::{HikageBundle, HorizonTerrain};
 
 /// Bevy's `StandardMaterial` in the shadow of a baked terrain.
 pub type TerrainReceiverMaterial = ExtendedMaterial<StandardMaterial, TerrainReceiverExtension>;
 
-/// Shades its entity's mesh with the far shadow of the terrain on entity `terrain` (a
-/// [`HorizonTerrain`]): each point's sun visibility comes from the terrain's baked horizons, as
-/// a point that high above the ground under it sees past them (the walk of hikage-runtime's
-/// `horizon_raised_sun_visible`), with the sun disc's softness. Put it on an entity with a
-/// `Mesh3d`; it gets a [`TerrainReceiverMaterial`] over `base` once the terrain's bundle has
-/// loaded, and again when the terrain moves or is rebaked.
+/// Shades its entity's mesh with the far shadow of the terrain on entity `terrain`: each
+/// point's sun visibility comes from the terrain's baked horizons, as a point that high above the
+/// ground under it sees past them (the walk of hikage-runtime's `horizon_raised_sun_visible`),
+/// with the sun disc's softness. Put it on an entity with a `Mesh3d`; once the terrain's bundle
+/// has loaded it gets a material over `base`, again when the terrain moves or is rebaked:
+///
+/// - naming a [`HorizonTerrain`], a [`TerrainReceiverMaterial`], which walks the terrain's map
+///   per fragment;
+/// - naming a [`StreamedTerrain`], a [`FieldReceiverMaterial`], which reads the terrain's
+///   sun-visibility field: hikage-runtime's `SunField`, built in the render world from the tiles
+///   the stream draws (28 MiB a streamed terrain with receivers).
 ///
 /// It composes with Bevy's cascades: where a cascade covers the point, the darker of the two
 /// shadows is drawn (not their product, which would darken the terrain's shadow twice where the
@@ -51,7 +58,7 @@ pub type TerrainReceiverMaterial = ExtendedMaterial<StandardMaterial, TerrainRec
 #[derive(Component, Clone, Debug)]
 #[require(bevy_transform::components::Transform, bevy_camera::visibility::Visibility, Problems)]
 pub struct TerrainReceiver {
-    /// The entity with the `HorizonTerrain` whose shadow this mesh receives.
+    /// The entity with the `HorizonTerrain` or `StreamedTerrain` whose shadow this mesh receives.
     pub terrain: Entity,
     /// The surface under the shadow.
     pub base: StandardMaterial,
@@ -159,14 +166,23 @@ impl TerrainReceiverExtension {
     }
 }
 
-/// A receiver as [`attach`] sees it.
-type Receiver<'a> = (Entity, Ref<'a, TerrainReceiver>, Has<MeshMaterial3d<TerrainReceiverMaterial>>, Mut<'a, Problems>);
+/// A receiver as [`attach`] sees it: which material it holds, and for a streamed terrain, the
+/// stream its material reads.
+type Receiver<'a> = (
+    Entity,
+    Ref<'a, TerrainReceiver>,
+    Has<MeshMaterial3d<TerrainReceiverMaterial>>,
+    Option<&'a MeshMaterial3d<FieldReceiverMaterial>>,
+    Mut<'a, Problems>,
+);
 
-/// A terrain as a receiver sees it: what it draws, where it lies, and whether it is streamed.
-type Terrain<'a> = (Option<Ref<'a, HorizonTerrain>>, Option<Ref<'a, GlobalTransform>>, Has<StreamedTerrain>);
+/// A terrain as a receiver sees it: what it draws and where it lies, or its stream.
+type Terrain<'a> =
+    (Option<Ref<'a, HorizonTerrain>>, Option<Ref<'a, GlobalTransform>>, Option<&'a Streaming>, Has<StreamedTerrain>);
 
-/// Builds each receiver that is new or changed, whose terrain changed, moved or was rebaked;
-/// a receiver naming an entity without a `HorizonTerrain` says so until it names one.
+/// Builds each receiver that is new or changed, whose terrain changed, moved, was rebaked or
+/// (streamed) restarted its stream; a receiver naming an entity without a terrain says so until
+/// it names one.
 pub(crate) fn attach(
     mut commands: Commands,
     mut events: MessageReader<AssetEvent<HikageBundle>>,
@@ -174,21 +190,45 @@ pub(crate) fn attach(
     mut receivers: Query<Receiver>,
     terrains: Query<Terrain>,
     mut materials: ResMut<Assets<TerrainReceiverMaterial>>,
+    mut field_materials: ResMut<Assets<FieldReceiverMaterial>>,
 ) {
     let reloaded: Vec<_> =
         events.read().filter_map(|e| if let AssetEvent::Modified { id } = e { Some(*id) } else { None }).collect();
-    for (entity, receiver, built, mut problems) in &mut receivers {
-        let (terrain, placed, streamed) = terrains.get(receiver.terrain).unwrap_or((None, None, false));
-        let (Some(terrain), Some(placed)) = (terrain, placed) else {
-            let message = if streamed {
-                format!(
-                    "terrain receiver {entity}: entity {} is a StreamedTerrain, whose receivers hikage-bevy does not \
-                     draw yet (hikage-runtime's SunField does, in a wgpu renderer): name a HorizonTerrain",
-                    receiver.terrain
-                )
-            } else {
-                format!("terrain receiver {entity}: entity {} has no HorizonTerrain", receiver.terrain)
+    for (entity, receiver, built, on_field, mut problems) in &mut receivers {
+        let (terrain, placed, streaming, streamed) =
+            terrains.get(receiver.terrain).unwrap_or((None, None, None, false));
+        if streamed && streaming.is_none() {
+            // Its stream has not started (its manifest is read), or cannot (said on the terrain).
+            Problems::set(&mut problems, Check::Names, None);
+            continue;
+        }
+        if let Some(streaming) = streaming {
+            Problems::set(&mut problems, Check::Names, None);
+            let map = match &streaming.field {
+                Ok(_) => None,
+                Err(message) => Some(format!("terrain receiver: {message}")),
             };
+            let failed = map.is_some();
+            Problems::set(&mut problems, Check::Build, map);
+            let current = on_field.and_then(|m| field_materials.get(&m.0)).is_some_and(|m| {
+                m.extension.terrain == receiver.terrain && m.extension.generation == streaming.generation
+            });
+            if failed || (current && !receiver.is_changed()) {
+                continue;
+            }
+            let extension = FieldReceiverExtension { terrain: receiver.terrain, generation: streaming.generation };
+            let material = ExtendedMaterial { base: receiver.base.clone(), extension };
+            commands
+                .entity(entity)
+                .remove::<MeshMaterial3d<TerrainReceiverMaterial>>()
+                .insert(MeshMaterial3d(field_materials.add(material)));
+            continue;
+        }
+        let (Some(terrain), Some(placed)) = (terrain, placed) else {
+            let message = format!(
+                "terrain receiver {entity}: entity {} has no HorizonTerrain or StreamedTerrain",
+                receiver.terrain
+            );
             Problems::set(&mut problems, Check::Names, Some(message));
             continue;
         };
@@ -204,7 +244,10 @@ pub(crate) fn attach(
         match TerrainReceiverExtension::new(bundle, &terrain, &placed) {
             Ok(extension) => {
                 let material = ExtendedMaterial { base: receiver.base.clone(), extension };
-                commands.entity(entity).insert(MeshMaterial3d(materials.add(material)));
+                commands
+                    .entity(entity)
+                    .remove::<MeshMaterial3d<FieldReceiverMaterial>>()
+                    .insert(MeshMaterial3d(materials.add(material)));
                 Problems::set(&mut problems, Check::Build, None);
             }
             Err(message) => Problems::set(&mut problems, Check::Build, Some(format!("terrain receiver: {message}"))),

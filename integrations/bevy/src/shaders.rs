@@ -16,6 +16,9 @@ pub(crate) const RELIEF: &str = "embedded://hikage_bevy/shaders/relief.wesl";
 /// The terrain receivers' fragment shader.
 pub(crate) const TERRAIN_RECEIVER: &str = "embedded://hikage_bevy/shaders/terrain_receiver.wesl";
 
+/// The fragment shader of a streamed terrain's receivers.
+pub(crate) const FIELD_RECEIVER: &str = "embedded://hikage_bevy/shaders/field_receiver.wesl";
+
 /// The hair receivers' fragment shader.
 pub(crate) const HAIR_RECEIVER: &str = "embedded://hikage_bevy/shaders/hair_receiver.wesl";
 
@@ -74,12 +77,25 @@ fn relief_library() -> String {
     moved(hikage_runtime::relief::RELIEF_WGSL, &RELIEF_BINDINGS)
 }
 
+/// The sun field's receiver bindings in hikage-runtime's WGSL, and where
+/// [`crate::field::FieldReceiverExtension`] binds them.
+const FIELD_BINDINGS: [(&str, &str); 2] = [
+    (
+        "@group(0) @binding(0) var<uniform> sun_field:",
+        "@group(constants::MATERIAL_BIND_GROUP) @binding(120) var<uniform> sun_field:",
+    ),
+    (
+        "@group(0) @binding(1) var sun_field_thresholds",
+        "@group(constants::MATERIAL_BIND_GROUP) @binding(121) var sun_field_thresholds",
+    ),
+];
+
 /// Keeps the runtime's shader libraries alive for as long as the app runs.
 #[derive(Resource)]
 struct Libraries(#[expect(dead_code, reason = "held only to keep the shaders loaded")] Vec<Handle<Shader>>);
 
-/// Registers `hikage_bevy::horizon`, `::relief` and `::hair` (hikage-runtime's functions) and embeds the
-/// materials' own shaders.
+/// Registers `hikage_bevy::horizon`, `::relief`, `::hair` and `::sun_field` (hikage-runtime's
+/// functions) and embeds the materials' own shaders.
 pub(crate) fn register(app: &mut App) {
     bevy_shader::load_shader_library!(app, "shaders/output.wesl");
     bevy_shader::load_shader_library!(app, "shaders/terrain.wesl");
@@ -87,11 +103,14 @@ pub(crate) fn register(app: &mut App) {
     bevy_shader::load_shader_library!(app, "shaders/curved.wesl");
     bevy_shader::load_shader_library!(app, "shaders/hair_receiver.wesl");
     bevy_shader::load_shader_library!(app, "shaders/terrain_receiver.wesl");
+    bevy_shader::load_shader_library!(app, "shaders/cascades.wesl");
+    bevy_shader::load_shader_library!(app, "shaders/field_receiver.wesl");
     let mut shaders = app.world_mut().resource_mut::<Assets<Shader>>();
     let libraries = [
         ("horizon", hikage_runtime::horizon::HORIZON_WGSL.to_string()),
         ("relief", relief_library()),
         ("hair", hair_library()),
+        ("sun_field", moved(hikage_runtime::horizon::SUN_FIELD_WGSL, &FIELD_BINDINGS)),
     ]
     .map(|(name, source)| shaders.add(Shader::from_wesl(source, format!("embedded://hikage_bevy/{name}.wesl"))));
     app.insert_resource(Libraries(libraries.to_vec()));

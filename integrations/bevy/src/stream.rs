@@ -26,7 +26,11 @@ use hikage_runtime::horizon::{
     TileLayout, TilePlan, apron_neighbours, heights_with_apron,
 };
 
+use hikage_runtime::glam::Vec2;
+use hikage_runtime::horizon::FieldMap;
+
 use crate::diagnostics::{Check, NamesBundle, Problems, SunShadowed};
+use crate::field::FieldPiece;
 use crate::terrain::{TerrainExtension, TerrainMaterial, TerrainUniform};
 use crate::{HikageBundle, RegisteredLoader};
 
@@ -153,6 +157,19 @@ pub(crate) struct Streaming {
     pending: HashMap<TileKey, Task<Result<Loaded, String>>>,
     ready: Vec<(TileKey, Loaded)>,
     frame: u64,
+    /// The map as its receivers' sun field sees it, or why it cannot have one.
+    pub(crate) field: Result<FieldMap, String>,
+    /// This stream among all streams built (a rebuilt stream gets a new field).
+    pub(crate) generation: u64,
+    /// The tiles drawn after the last frame.
+    pub(crate) drawn: Vec<TileKey>,
+}
+
+impl Streaming {
+    /// What the sun field reads of the tiles drawn now.
+    pub(crate) fn drawn_pieces(&self) -> impl Iterator<Item = &FieldPiece> {
+        self.drawn.iter().filter_map(|k| self.resident.get(k)).map(|r| &r.piece)
+    }
 }
 
 /// A tile's entity and what it holds.
@@ -161,6 +178,8 @@ struct Resident {
     bytes: u64,
     last_used: u64,
     shown: bool,
+    /// What the terrain's sun field reads of it.
+    piece: FieldPiece,
 }
 
 /// A tile read and made ready to add.
@@ -170,6 +189,10 @@ struct Loaded {
     horizon: Image,
     ao: Option<Image>,
     uniform: TerrainUniform,
+    /// The tile's heights with its neighbours' apron, as 32-bit floats, and what a sun field
+    /// reads with them (the terrain's receivers).
+    heights: Image,
+    constants: hikage_runtime::horizon::TerrainUniform,
     bytes: u64,
 }
 
@@ -315,13 +338,15 @@ pub(crate) fn stream_terrain(
             }
             uploaded += loaded.bytes;
             let bytes = loaded.bytes;
-            let tile = add_tile(&mut commands, &mut assets, &terrain.base, &s.layout, key, loaded, entity, no_shadow);
-            s.resident.insert(key, Resident { entity: tile, bytes, last_used: s.frame, shown: false });
+            let (tile, piece) =
+                add_tile(&mut commands, &mut assets, &terrain.base, &s.layout, key, loaded, entity, no_shadow);
+            s.resident.insert(key, Resident { entity: tile, bytes, last_used: s.frame, shown: false, piece });
         }
         // Show the tiles drawn now that tiles came and went (an evicted tile's area falls back to
         // its coarser tile, which stays while finer tiles hang from it; a tile added above shows
         // once its mesh and material are ready).
         let plan = s.layout.plan((cam.x, cam.z), options, |k| s.resident.contains_key(&k));
+        s.drawn.clone_from(&plan.drawn);
         let drawn: std::collections::HashSet<TileKey> = plan.drawn.iter().copied().collect();
         for (key, r) in s.resident.iter_mut() {
             let show = drawn.contains(key);
@@ -410,7 +435,8 @@ fn start(server: &AssetServer, terrain: &StreamedTerrain, manifest: Arc<Manifest
             total += entry(part, key).and_then(|e| e.payload.texture()?.total_bytes()).unwrap_or(0);
         }
         let heights = entry(&layout.parts.height, key).and_then(|e| e.payload.texture().cloned());
-        total + heights.map_or(0, |t| mesh_bytes(t.width, t.height))
+        // The mesh, and the heights the sun field reads (with their apron, 32-bit floats).
+        total + heights.map_or(0, |t| mesh_bytes(t.width, t.height) + 4 * u64::from((t.width + 2) * (t.height + 2)))
     };
     let first = entry(&layout.parts.horizon, (0, 0, 0)).and_then(|e| e.payload.texture().cloned());
     if let Some(t) = first.filter(|t| t.width.max(t.height) > MAX_TILE_SIDE) {
@@ -440,7 +466,11 @@ fn start(server: &AssetServer, terrain: &StreamedTerrain, manifest: Arc<Manifest
     }
     let shortfall = layout.budget_shortfall(options, |k| level_bytes[k.0 as usize]);
     let path = server.get_path(terrain.bundle.id()).ok_or("the bundle has no asset path")?;
+    static STREAMS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     Ok(Streaming {
+        field: field_map(&terrain.map, &layout, entry(&layout.parts.horizon, (0, 0, 0))),
+        generation: STREAMS.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+        drawn: Vec::new(),
         manifest,
         shortfall,
         bundle: terrain.bundle.id(),
@@ -453,6 +483,25 @@ fn start(server: &AssetServer, terrain: &StreamedTerrain, manifest: Arc<Manifest
         ready: Vec::new(),
         frame: 0,
     })
+}
+
+/// The map of `layout` as a sun field sees it, from its first horizon tile `first`; or why it
+/// cannot have one (horizons without distances).
+fn field_map(map: &str, layout: &TileLayout, first: Option<Entry>) -> Result<FieldMap, String> {
+    let first = first.ok_or_else(|| format!("map `{map}` has no horizon tile (0, 0) at level 0"))?;
+    let (Some(settings), Some(texture)) = (first.settings.horizon(), first.payload.texture()) else {
+        return Err(format!("`{}` is not a horizon texture", first.id));
+    };
+    if texture.format.channels() != 2 {
+        return Err(format!(
+            "map `{map}`'s horizons hold no distances to their horizons (one channel): a receiver needs them; bake \
+             it again with this hikage"
+        ));
+    }
+    let level = &layout.levels[0];
+    let texel = Vec2::new(level.texel.0, level.texel.1);
+    let size = texel * Vec2::new(level.size.0 as f32, level.size.1 as f32);
+    Ok(FieldMap { size, texel, directions: settings.directions, reach: settings.max_distance.unwrap_or(size.length()) })
 }
 
 /// The bytes of a tile mesh of `w`×`h` nodes with skirts: positions, normals and UVs (32 bytes
@@ -508,6 +557,7 @@ fn read_tile(
             }
         }
         let apron = heights_with_apron(&own, &sides);
+        let heights = float_image(&apron);
         let hf = r.height.settings.heightfield().ok_or_else(|| format!("`{}` is not a heightfield", r.height.id))?;
         let skirt = skirt_texels * hf.texel_size.0.max(hf.texel_size.1);
         let (mesh, bounds) =
@@ -526,13 +576,23 @@ fn read_tile(
         let format = r.horizon.payload.texture().map(|t| t.format).ok_or("a horizon tile without a texture")?;
         let encoding = HorizonEncoding::new(format, settings);
         let uniform = TerrainUniform::new(&encoding, settings.texel_size, ao.is_some());
+        let constants = hikage_runtime::horizon::TerrainUniform {
+            texel_size: [settings.texel_size.0, settings.texel_size.1],
+            height_scale: hf.height_scale,
+            height_offset: hf.height_offset,
+            size: [own.desc.width, own.desc.height],
+            encoding,
+            apron: 1,
+            ..hikage_runtime::bytemuck::Zeroable::zeroed()
+        };
         let image_bytes = |i: &Image| i.data.as_ref().map_or(0, |d| d.len() as u64);
         let indices = mesh.indices().map_or(0, |i| i.len() as u64);
         let bytes = image_bytes(&horizon)
             + ao.as_ref().map_or(0, image_bytes)
+            + image_bytes(&heights)
             + mesh.count_vertices() as u64 * mesh.get_vertex_size()
             + 4 * indices;
-        Ok(Loaded { mesh, bounds, horizon, ao, uniform, bytes })
+        Ok(Loaded { mesh, bounds, horizon, ao, uniform, heights, constants, bytes })
     })
 }
 
@@ -561,7 +621,8 @@ fn make_room(
     }
 }
 
-/// Adds tile `key` as a hidden child of `parent`: its mesh, its images and its material.
+/// Adds tile `key` as a hidden child of `parent`: its mesh, its images and its material; and
+/// what a sun field reads of it.
 #[expect(clippy::too_many_arguments, reason = "the tile, its terrain's parts and where it goes")]
 fn add_tile(
     commands: &mut Commands,
@@ -572,14 +633,19 @@ fn add_tile(
     loaded: Loaded,
     parent: Entity,
     no_shadow: bool,
-) -> Entity {
-    let extension = TerrainExtension {
-        uniform: loaded.uniform,
-        horizon: assets.images.add(loaded.horizon),
-        ao: loaded.ao.map(|ao| assets.images.add(ao)),
-    };
-    let material = assets.materials.add(ExtendedMaterial { base: base.clone(), extension });
+) -> (Entity, FieldPiece) {
+    let horizon = assets.images.add(loaded.horizon);
     let (x, z) = layout.offset(key);
+    let piece = FieldPiece {
+        key,
+        offset: Vec2::new(x, z),
+        horizon: horizon.clone(),
+        heights: assets.images.add(loaded.heights),
+        constants: loaded.constants,
+    };
+    let extension =
+        TerrainExtension { uniform: loaded.uniform, horizon, ao: loaded.ao.map(|ao| assets.images.add(ao)) };
+    let material = assets.materials.add(ExtendedMaterial { base: base.clone(), extension });
     let mut tile = commands.spawn((
         TerrainTile { key, rect: layout.rect(key) },
         Mesh3d(assets.meshes.add(loaded.mesh)),
@@ -592,5 +658,19 @@ fn add_tile(
     if no_shadow {
         tile.insert(NotShadowCaster);
     }
-    tile.id()
+    (tile.id(), piece)
+}
+
+/// `heights` (one channel, any format) as a 2D `R32Float` image of its samples, for the render
+/// world alone.
+fn float_image(heights: &TextureData) -> Image {
+    let (w, h) = (heights.desc.width, heights.desc.height);
+    let bytes: Vec<u8> = heights.channel_f32(0, 0).into_iter().flat_map(f32::to_le_bytes).collect();
+    Image::new(
+        bevy_render::render_resource::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        bevy_render::render_resource::TextureDimension::D2,
+        bytes,
+        bevy_render::render_resource::TextureFormat::R32Float,
+        RenderAssetUsages::RENDER_WORLD,
+    )
 }

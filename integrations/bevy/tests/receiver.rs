@@ -9,7 +9,8 @@ mod common;
 use bevy::light::{NotShadowCaster, SunDisk};
 use bevy::prelude::*;
 use hikage_bevy::{
-    HikageBundle, HikageError, HorizonTerrain, StreamedTerrain, TerrainReceiver, TerrainReceiverMaterial,
+    FieldReceiverMaterial, HikageBundle, HikageError, HorizonTerrain, StreamOptions, StreamedTerrain, TerrainReceiver,
+    TerrainReceiverMaterial, TerrainStreamStats,
 };
 use hikage_devkit::brute_force::{bilinear_height, sun_shadow_height};
 use hikage_runtime::CpuBundle;
@@ -113,7 +114,10 @@ fn spawn_sheet(
     let receiver = TerrainReceiver::new(terrain).with_base(base);
     let water =
         app.world().spawn((Mesh3d(sheet), Transform::from_xyz(ex / 2.0, y, ez / 2.0), NotShadowCaster, receiver)).id();
-    let built = app.update_until(600, |w| w.get::<MeshMaterial3d<TerrainReceiverMaterial>>(water).is_some());
+    let built = app.update_until(600, |w| {
+        w.get::<MeshMaterial3d<TerrainReceiverMaterial>>(water).is_some()
+            || w.get::<MeshMaterial3d<FieldReceiverMaterial>>(water).is_some()
+    });
     assert!(built, "the receiver was not built: {:?}", app.world().get::<HikageError>(water));
     water
 }
@@ -135,7 +139,9 @@ fn map_and_heights(dir: &std::path::Path, job: &str) -> (HorizonMap, Vec<f32>) {
     (map, heights.texture().unwrap().to_f32(0).iter().map(|&v| settings.world_height(v)).collect())
 }
 
-/// A receiver says what is wrong: a terrain entity that is none, a streamed terrain, no mesh.
+/// A receiver says what is wrong (a terrain entity that is none, no mesh) and is drawn once it
+/// is fixed; a receiver of a streamed terrain reads its field, and moves to a one-mesh terrain
+/// when it names one.
 #[test]
 fn receiver_mistakes_are_said_on_the_entity() {
     if !gpu_or_skip("receiver_mistakes_are_said_on_the_entity") {
@@ -143,7 +149,9 @@ fn receiver_mistakes_are_said_on_the_entity() {
     }
     let dir = bake(
         "receiver_mistakes",
-        r#"Horizon(id: "t", input: "data/cylinders.png", texel_size: (1, 1), height_scale: 4, directions: 8, edge: Clamp)"#,
+        r#"Horizon(id: "t", input: "data/cylinders.png", texel_size: (1, 1), height_scale: 4, directions: 8, edge: Clamp),
+           Horizon(id: "s", input: "data/cylinders.png", texel_size: (1, 1), height_scale: 4, directions: 8, edge: Clamp,
+                   max_distance: 40, tile: 64, levels: 16)"#,
     );
     let MaskScene { mut app, .. } = MaskScene::new(
         &dir,
@@ -154,18 +162,20 @@ fn receiver_mistakes_are_said_on_the_entity() {
     );
     let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
     let nothing = app.world().spawn(Transform::default()).id();
-    let streamed = app.world().spawn(StreamedTerrain::new(bundle.clone(), "t")).id();
+    let streamed = app.world().spawn(StreamedTerrain::new(bundle.clone(), "s")).id();
     let terrain = app.world().spawn(HorizonTerrain::new(bundle, "t.horizon")).id();
     let plane = app.world().resource_mut::<Assets<Mesh>>().add(Plane3d::default().mesh().size(2.0, 2.0));
     let to_nothing = app.world().spawn((Mesh3d(plane.clone()), TerrainReceiver::new(nothing))).id();
     let to_stream = app.world().spawn((Mesh3d(plane.clone()), TerrainReceiver::new(streamed))).id();
     let no_mesh = app.world().spawn(TerrainReceiver::new(terrain)).id();
     let error = |app: &mut common::Headless, e: Entity| app.world().get::<HikageError>(e).map(|e| e.0.clone());
-    let said =
-        app.update_until(600, |w| [to_nothing, to_stream, no_mesh].iter().all(|&e| w.get::<HikageError>(e).is_some()));
+    let said = app.update_until(600, |w| {
+        [to_nothing, no_mesh].iter().all(|&e| w.get::<HikageError>(e).is_some())
+            && w.get::<MeshMaterial3d<FieldReceiverMaterial>>(to_stream).is_some()
+    });
     assert!(said, "{:?} {:?} {:?}", error(&mut app, to_nothing), error(&mut app, to_stream), error(&mut app, no_mesh));
-    assert!(error(&mut app, to_nothing).is_some_and(|m| m.contains("has no HorizonTerrain")));
-    assert!(error(&mut app, to_stream).is_some_and(|m| m.contains("is a StreamedTerrain")));
+    assert!(error(&mut app, to_nothing).is_some_and(|m| m.contains("has no HorizonTerrain or StreamedTerrain")));
+    assert!(error(&mut app, to_stream).is_none());
     assert!(error(&mut app, no_mesh).is_some_and(|m| m.contains("no Mesh3d")));
     // Fixed: the receivers name the terrain, the last gets a mesh.
     app.world().get_mut::<TerrainReceiver>(to_nothing).unwrap().terrain = terrain;
@@ -173,7 +183,9 @@ fn receiver_mistakes_are_said_on_the_entity() {
     app.world().entity_mut(no_mesh).insert(Mesh3d(plane));
     let cleared = app.update_until(200, |w| {
         [to_nothing, to_stream, no_mesh].iter().all(|&e| {
-            w.get::<HikageError>(e).is_none() && w.get::<MeshMaterial3d<TerrainReceiverMaterial>>(e).is_some()
+            w.get::<HikageError>(e).is_none()
+                && w.get::<MeshMaterial3d<TerrainReceiverMaterial>>(e).is_some()
+                && w.get::<MeshMaterial3d<FieldReceiverMaterial>>(e).is_none()
         })
     });
     assert!(
@@ -290,4 +302,126 @@ fn a_receiver_composes_with_the_cascades_without_a_seam() {
     for (i, band) in bands.iter().enumerate() {
         assert!(share(i) >= 0.95, "{band:?}: {}", share(i));
     }
+}
+
+/// A streamed terrain's receivers (the terrain's sun field in Bevy's render world): a sheet of
+/// water over a generated 41 km terrain baked whole and in 64² tiles, seen from above at a 4°
+/// sun. Streamed at level 0 everywhere, its pixels agree with the one-mesh terrain's receiver
+/// and with the exact march as well as that receiver does; streamed with coarser tiles away from
+/// the camera, within a point of that.
+#[test]
+fn a_streamed_terrains_receivers_agree_with_the_one_mesh_terrains() {
+    if !gpu_or_skip("a_streamed_terrains_receivers_agree_with_the_one_mesh_terrains") {
+        return;
+    }
+    const N: usize = 512;
+    const TEXEL: f32 = 80.0;
+    const RELIEF: f32 = 1800.0;
+    const REACH: f32 = 15_000.0;
+    let tmp = option_env!("CARGO_TARGET_TMPDIR").map_or_else(std::env::temp_dir, std::path::PathBuf::from);
+    std::fs::create_dir_all(&tmp).unwrap();
+    let dem = tmp.join("receiver_stream_dem.r32");
+    let samples = hikage_devkit::synth::terrain(N as u32);
+    std::fs::write(&dem, samples.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>()).unwrap();
+    let job = |id: &str, tiles: &str| {
+        format!(
+            r#"Horizon(id: "{id}", input: "{}", texel_size: ({TEXEL}, {TEXEL}), height_scale: {RELIEF},
+               directions: 32, edge: Clamp, max_distance: {REACH}{tiles}),"#,
+            dem.display()
+        )
+    };
+    let dir = bake("receiver_stream", &format!("{} {}", job("whole", ""), job("dem", ", tile: 64, levels: 16")));
+    let heights: Vec<f32> = samples.iter().map(|v| v * RELIEF).collect();
+    let mut sorted = heights.clone();
+    sorted.sort_by(f32::total_cmp);
+    let water = sorted[N * N / 2];
+    let extent = N as f32 * TEXEL;
+    let (elevation, azimuth) = (4f32.to_radians(), 30f32.to_radians());
+    let sun = Vec3::new(elevation.cos() * azimuth.cos(), elevation.sin(), elevation.cos() * azimuth.sin());
+    let centre = Vec3::new(extent / 2.0, 0.0, extent / 2.0);
+    let MaskScene { mut app, target, .. } = MaskScene::new(
+        &dir,
+        SIZE,
+        sun,
+        Transform::from_translation(centre + Vec3::Y * 6000.0).looking_at(centre, Vec3::NEG_Z),
+        MaskScene::orthographic(extent, extent, 12_000.0),
+    );
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    // The terrains shadow the sheet but are not drawn over it.
+    let whole = app
+        .world()
+        .spawn((HorizonTerrain::new(bundle.clone(), "whole.horizon"), NotShadowCaster, Visibility::Hidden))
+        .id();
+    let sheet = spawn_sheet(&mut app, whole, (extent, extent), water, StandardMaterial::default());
+    let one_mesh = app.capture_settled(&target);
+    shadow_off(&mut app, sheet);
+    let open = app.capture_settled(&target);
+    // The same sheet naming the stream: level 0 everywhere, then as a game streams.
+    let streamed = |app: &mut common::Headless, options: StreamOptions| {
+        let terrain = app
+            .world()
+            .spawn((
+                StreamedTerrain::new(bundle.clone(), "dem").with_options(options),
+                NotShadowCaster,
+                Visibility::Hidden,
+            ))
+            .id();
+        app.world().get_mut::<TerrainReceiver>(sheet).unwrap().terrain = terrain;
+        let settled = app.update_until(3000, |w| {
+            let s = w.get::<TerrainStreamStats>(terrain).map(|s| s.0).unwrap_or_default();
+            s.drawn > 0 && s.missing == 0 && w.get::<MeshMaterial3d<FieldReceiverMaterial>>(sheet).is_some()
+        });
+        assert!(settled, "the stream never settled: {:?}", app.world().get::<HikageError>(terrain));
+        assert!(app.world().get::<HikageError>(sheet).is_none(), "{:?}", app.world().get::<HikageError>(sheet));
+        let pixels = app.capture_settled(&target);
+        let stats = app.world().get::<TerrainStreamStats>(terrain).unwrap().0;
+        app.world().despawn(terrain);
+        (pixels, stats)
+    };
+    let all_level_0 =
+        StreamOptions { detail: 1e9, resident_bytes: 1 << 30, upload_bytes: 1 << 30, ..StreamOptions::default() };
+    let (level_0, stats) = streamed(&mut app, all_level_0);
+    assert_eq!(stats.drawn, 64, "level 0 everywhere: {stats:?}");
+    // Fine tiles only near the camera, over the map's centre: coarser ones over most of it.
+    let (as_a_game, stats) = streamed(&mut app, StreamOptions { detail: 0.5, ..StreamOptions::default() });
+    assert!(stats.finest_drawn == 0 && stats.drawn < 30, "coarser tiles far away: {stats:?}");
+    // Per pixel of water above the ground: lit by the march, by the one-mesh receiver, by each stream.
+    let (mut checked, mut lit, mut agree) = (0usize, 0usize, [0usize; 5]);
+    for row in 0..SIZE {
+        for col in 0..SIZE {
+            let k = (row * SIZE + col) as usize;
+            let (x, z) = ((col as f32 + 0.5) / SIZE as f32 * extent, (row as f32 + 0.5) / SIZE as f32 * extent);
+            let Some(ground) = bilinear_height(&heights, (N, N), (TEXEL, TEXEL), (x, z)) else { continue };
+            if water < ground + 1.0 || open[k][1] < 0.02 {
+                continue;
+            }
+            let exact =
+                water > sun_shadow_height(&heights, (N, N), (TEXEL, TEXEL), (x, z), (elevation, azimuth), REACH);
+            let drawn = |pixels: &[[f32; 3]]| pixels[k][1] >= 0.5 * open[k][1];
+            checked += 1;
+            lit += usize::from(exact);
+            agree[0] += usize::from(drawn(&one_mesh) == exact);
+            agree[1] += usize::from(drawn(&level_0) == exact);
+            agree[2] += usize::from(drawn(&as_a_game) == exact);
+            agree[3] += usize::from(drawn(&level_0) == drawn(&one_mesh));
+            agree[4] += usize::from(drawn(&level_0) == drawn(&as_a_game));
+        }
+    }
+    let share = |n: usize| n as f64 / checked as f64;
+    eprintln!(
+        "streamed receivers: {checked} pixels of water above the ground, {:.1}% lit by the march; agree with the \
+         march: one mesh {:.2}%, stream at level 0 {:.2}%, stream with coarser tiles far away {:.2}%; level 0 with one mesh \
+         {:.2}%, with the stream with coarser tiles far away {:.2}%",
+        100.0 * share(lit),
+        100.0 * share(agree[0]),
+        100.0 * share(agree[1]),
+        100.0 * share(agree[2]),
+        100.0 * share(agree[3]),
+        100.0 * share(agree[4])
+    );
+    assert!(checked > 30_000, "{checked} pixels of water");
+    assert!((0.2..0.95).contains(&share(lit)), "a low sun casts long shadows on the water");
+    assert!(share(agree[1]) >= share(agree[0]) - 0.005, "level 0 against the march");
+    assert!(share(agree[2]) >= share(agree[0]) - 0.01, "coarser tiles far away, against the march");
+    assert!(share(agree[3]) >= 0.97, "level 0 against one mesh");
 }

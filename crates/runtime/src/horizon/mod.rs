@@ -31,7 +31,8 @@ use hikage_bundle::{EdgeMode, HorizonSettings, TextureFormat};
 pub use field_tiles::{FieldMap, FieldTileTextures, SunFieldTiles};
 pub use stream::{MAX_TILE_SIDE, StreamOptions, StreamStats, TerrainStream};
 pub use sun_field::{
-    FieldTerrain, MAX_SUN_FIELD_LEVELS, SUN_FIELD_WGSL, SunField, SunFieldOptions, SunFieldSource, SunFieldStats,
+    FieldTerrain, MAX_SUN_FIELD_LEVELS, SUN_FIELD_UNIFORM_BYTES, SUN_FIELD_WGSL, SunField, SunFieldOptions,
+    SunFieldSource, SunFieldStats,
 };
 pub use surface::{SurfaceFrame, SurfaceShadows, SurfaceUniform};
 pub use terrain::{Sun, TerrainExtent, TerrainFrame, TerrainShadows, TerrainUniform};

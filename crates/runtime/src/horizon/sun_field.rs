@@ -23,6 +23,10 @@ pub(crate) const WALK_WGSL: &str = include_str!("../shaders/sun_field_walk.wgsl"
 pub const SUN_FIELD_WGSL: &str =
     concat!(include_str!("../shaders/sun_field_common.wgsl"), "\n", include_str!("../shaders/sun_field.wgsl"));
 
+/// Bytes of the receivers' uniform (binding 0 of [`SunField::layout`]), for an engine that
+/// declares the binding itself.
+pub const SUN_FIELD_UNIFORM_BYTES: u64 = std::mem::size_of::<SunFieldUniform>() as u64;
+
 /// Levels a field holds at most (the uniform's array).
 pub const MAX_SUN_FIELD_LEVELS: u32 = 8;
 
