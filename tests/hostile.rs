@@ -602,6 +602,83 @@ fn tiff_chunks_too_large_to_decode_are_refused_from_the_header() {
     }
 }
 
+/// TIFF headers claiming a grid past `max_dimension` — wide, tall or both, in strips or tiles
+/// whose tables the claim makes inconsistent, little- or big-endian, classic or BigTIFF — are
+/// refused for their size, naming the file and the dimension, by `validate` and by a bake.
+#[test]
+fn tiff_headers_of_huge_grids_are_refused_for_their_size() {
+    let dir = Dir::new("hostile_tiff_dimensions");
+    // (tag, type, value): SHORT 3, LONG 4, LONG8 16.
+    let header = |little: bool, big: bool, entries: &[(u16, u16, u64)]| {
+        let put = |out: &mut Vec<u8>, v: u64, n: usize| {
+            let b = v.to_le_bytes();
+            let mut b = b[..n].to_vec();
+            if !little {
+                b.reverse();
+            }
+            out.extend_from_slice(&b);
+        };
+        let mut t = if little { b"II".to_vec() } else { b"MM".to_vec() };
+        let (count, value) = if big { (8, 8) } else { (2, 4) };
+        if big {
+            put(&mut t, 43, 2);
+            put(&mut t, 8, 2);
+            put(&mut t, 0, 2);
+            put(&mut t, 16, 8);
+        } else {
+            put(&mut t, 42, 2);
+            put(&mut t, 8, 4);
+        }
+        put(&mut t, entries.len() as u64, count);
+        for &(tag, ty, v) in entries {
+            put(&mut t, u64::from(tag), 2);
+            put(&mut t, u64::from(ty), 2);
+            put(&mut t, 1, value);
+            // A value sits at the start of its field.
+            let width = match ty {
+                3 => 2,
+                4 => 4,
+                _ => 8,
+            };
+            put(&mut t, v, width);
+            t.resize(t.len() + (value - width), 0);
+        }
+        put(&mut t, 0, value);
+        t
+    };
+    let shape = |w: u64, h: u64, tiled: bool, long: u16| {
+        let mut e =
+            vec![(256, long, w), (257, long, h), (258, 3, 8), (259, 3, 1), (262, 3, 1), (277, 3, 1), (339, 3, 1)];
+        if tiled {
+            e.extend([(322, 4, 256), (323, 4, 256), (324, 4, 64), (325, 4, 1)]);
+        } else {
+            e.extend([(273, 4, 64), (278, 4, 1), (279, 4, 1)]);
+        }
+        e.sort_by_key(|x| x.0);
+        e
+    };
+    let cases = [
+        ("wide.tif", true, false, shape(4_000_000_000, 1, false, 4), "4000000000×1"),
+        ("tall.tif", true, false, shape(1, 4_000_000_000, false, 4), "1×4000000000"),
+        ("tiles.tif", true, false, shape(70_000, 70_000, true, 4), "70000×70000"),
+        ("short.tif", false, false, shape(40_000, 8, false, 3), "40000×8"),
+        ("motorola.tif", false, false, shape(8, 3_000_000_000, true, 4), "8×3000000000"),
+        ("big.tif", true, true, shape(1 << 40, 1 << 40, true, 16), "1099511627776×1099511627776"),
+    ];
+    for (name, little, big, entries, size) in &cases {
+        dir.write(name, header(*little, *big, entries));
+        dir.write(
+            "pipeline.ron",
+            format!(r#"(output: "b", jobs: [Horizon(id: "t", input: "{name}", directions: 4)])"#),
+        );
+        for args in [&["validate", "pipeline.ron"][..], &["bake", "pipeline.ron"]] {
+            let err = refused(&dir, args, 1, &[name, &format!("image dimension ({size})"), "above the limit"], &[]);
+            assert!(!err.contains("panicked"), "{err}");
+        }
+        assert!(!dir.path("b/bundle.ron").exists(), "nothing committed");
+    }
+}
+
 /// A map within `max_dimension` but wider than one texture may be is refused, naming the input,
 /// by `validate PIPELINE` and by the bake of each job that would write it whole, before
 /// baking; a tiled horizon bake of it is fine.

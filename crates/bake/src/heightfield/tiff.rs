@@ -5,6 +5,7 @@
 //! tags are not needed for a bake and are ignored. The header is checked before any sample is
 //! decoded: size within the limits, one sample per pixel of a depth listed above.
 
+use std::io::Seek;
 use std::path::Path;
 
 use tiff::decoder::{ChunkType, Decoder, DecodingResult, Limits};
@@ -28,6 +29,59 @@ pub(super) struct TiffFile {
     pub no_data: Option<f32>,
 }
 
+/// Width and height from the first image directory of a classic or Big TIFF, read entry by
+/// entry with positioned reads (at most 4,096 entries); `None` where the header is not one the
+/// decoder would read either (it then says why).
+fn header_dimensions(file: &std::fs::File) -> Option<(u64, u64)> {
+    use std::io::{Read, SeekFrom};
+    let read = |at: u64, n: usize| -> Option<Vec<u8>> {
+        let mut b = vec![0; n];
+        let mut f = file;
+        f.seek(SeekFrom::Start(at)).ok()?;
+        f.read_exact(&mut b).ok()?;
+        Some(b)
+    };
+    let head = read(0, 16)?;
+    let little = match &head[..2] {
+        b"II" => true,
+        b"MM" => false,
+        _ => return None,
+    };
+    let uint = |b: &[u8]| -> u64 {
+        let mut v = 0u64;
+        for k in 0..b.len() {
+            let byte = if little { b[b.len() - 1 - k] } else { b[k] };
+            v = v << 8 | u64::from(byte);
+        }
+        v
+    };
+    // Classic: 2-byte counts, 12-byte entries, 4-byte values; Big (43): 8, 20 and 8.
+    let (count_bytes, entry_bytes, value_bytes, ifd) = match uint(&head[2..4]) {
+        42 => (2, 12, 4, uint(&head[4..8])),
+        43 => (8, 20, 8, uint(&head[8..16])),
+        _ => return None,
+    };
+    let count = uint(&read(ifd, count_bytes)?).min(4096) as usize;
+    let entries = read(ifd + count_bytes as u64, count * entry_bytes)?;
+    let (mut w, mut h) = (None, None);
+    for e in entries.chunks_exact(entry_bytes) {
+        let (tag, kind) = (uint(&e[..2]), uint(&e[2..4]));
+        let value = &e[entry_bytes - value_bytes..];
+        let v = match kind {
+            3 => uint(&value[..2]),
+            4 => uint(&value[..4]),
+            16 => uint(&value[..8]),
+            _ => continue,
+        };
+        match tag {
+            256 => w = Some(v),
+            257 => h = Some(v),
+            _ => {}
+        }
+    }
+    Some((w?, h?))
+}
+
 fn bad(path: &Path, e: tiff::TiffError) -> BakeError {
     BakeError::input(path, None, format!("cannot decode TIFF: {e}"))
 }
@@ -37,6 +91,12 @@ fn bad(path: &Path, e: tiff::TiffError) -> BakeError {
 pub(super) fn open(path: &Path, options: &LoadOptions) -> Result<TiffFile, BakeError> {
     let bad = |e| bad(path, e);
     let file = hikage_bundle::files::open_regular(path).map_err(|e| BakeError::io(path, e))?;
+    // The size first, from the header alone: the decoder checks a huge grid's strip or tile
+    // tables before it says its size, and would refuse it for those instead.
+    if let Some((w, h)) = header_dimensions(&file) {
+        check_dimensions(path, w, h, options.max_dimension)?;
+    }
+    (&file).rewind().map_err(|e| BakeError::io(path, e))?;
     let mut limits = Limits::default();
     // Room for the largest chunk read (checked against the header below), in the widest sample.
     limits.decoding_buffer_size = MAX_CHUNK_SAMPLES as usize * 8;
