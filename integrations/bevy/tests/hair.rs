@@ -511,6 +511,43 @@ fn hair_mistakes_are_said_on_the_entity() {
     assert!(app.world().resource::<bevy::ecs::message::Messages<AppExit>>().is_empty(), "the app was asked to quit");
 }
 
+/// A receiver is drawn only once its hair's maps have been: in every frame in which it has its
+/// material, the render world has drawn the maps it reads (the first frames, before the hair's
+/// renderer exists, would otherwise draw it with empty maps).
+#[test]
+fn a_receiver_waits_for_its_hairs_maps() {
+    if !gpu_or_skip("a_receiver_waits_for_its_hairs_maps") {
+        return;
+    }
+    let (dir, _) = hair_bundle("hair_first_frame");
+    let MaskScene { mut app, .. } = MaskScene::new(
+        &dir,
+        32,
+        Vec3::Y,
+        Transform::from_xyz(0.0, 40.0, 0.0).looking_at(Vec3::ZERO, Vec3::NEG_Z),
+        default(),
+    );
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    let hair = app.world().spawn(HairStrands::new(bundle, "head.strips")).id();
+    let plane = app.world().resource_mut::<Assets<Mesh>>().add(Plane3d::default().mesh().size(20.0, 20.0));
+    let receiver = app.world().spawn((Mesh3d(plane), HairReceiver::new(hair))).id();
+    let mut frames_without = 0;
+    for _ in 0..600 {
+        app.update();
+        let world = app.world();
+        let Some(maps) = world.get::<HairShadowMaps>(hair) else { continue };
+        if world.get::<MeshMaterial3d<HairReceiverMaterial>>(receiver).is_none() {
+            frames_without += 1;
+            continue;
+        }
+        assert!(maps.drawn(), "the receiver has its material before its hair's maps were drawn");
+        eprintln!("the receiver got its material {frames_without} frames after its hair got maps");
+        assert!(world.get::<HikageError>(receiver).is_none(), "{:?}", world.get::<HikageError>(receiver));
+        return;
+    }
+    panic!("the receiver never got its material: {:?}", app.world().get::<HikageError>(receiver));
+}
+
 /// Hair bound to a skinned scalp follows the `SkinnedMesh` it is given: the devkit's character
 /// (a head on a neck, two joints) posed by its joint entities draws its hair, and the hair's
 /// shadow on a ground, as the same strands posed on the CPU and baked there — with the light box

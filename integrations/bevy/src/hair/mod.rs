@@ -233,6 +233,41 @@ pub struct HairShadowMaps {
     pub layers: Handle<Image>,
     /// Texels per side.
     pub resolution: u32,
+    /// Set by the render world once it has drawn the maps into `depth` and `layers`.
+    drawn: MapsDrawn,
+}
+
+impl HairShadowMaps {
+    /// True once the render world has drawn these maps (it then draws them every frame, before
+    /// the main pass). Receivers are given their material only then, so no receiver is drawn
+    /// with maps that hold nothing yet.
+    ///
+    /// ```no_run
+    /// use bevy::prelude::*;
+    /// use hikage_bevy::HairShadowMaps;
+    ///
+    /// fn ready(hairs: Query<&HairShadowMaps>) -> bool {
+    ///     hairs.iter().all(HairShadowMaps::drawn)
+    /// }
+    /// ```
+    pub fn drawn(&self) -> bool {
+        self.drawn.0.load(std::sync::atomic::Ordering::Acquire)
+    }
+
+    /// Says that the render world has drawn the maps.
+    pub(crate) fn set_drawn(&self) {
+        self.drawn.0.store(true, std::sync::atomic::Ordering::Release);
+    }
+}
+
+/// Whether a [`HairShadowMaps`] has been drawn, shared by its copies in both worlds.
+#[derive(Clone, Debug, Default)]
+struct MapsDrawn(std::sync::Arc<std::sync::atomic::AtomicBool>);
+
+impl PartialEq for MapsDrawn {
+    fn eq(&self, other: &MapsDrawn) -> bool {
+        std::sync::Arc::ptr_eq(&self.0, &other.0)
+    }
 }
 
 /// Registers the hair's systems: the maps' assets in the main world, the renderer in the
@@ -365,6 +400,7 @@ fn give_maps(
         let (depth, layers) = (map(TextureFormat::R32Float), map(TextureFormat::Rgba16Float));
         let size = std::mem::size_of::<HairUniform>() as u64;
         let uniform = buffers.add(ShaderBuffer::with_size(size, RenderAssetUsages::RENDER_WORLD));
-        commands.entity(entity).insert(HairShadowMaps { uniform, depth, layers, resolution: r });
+        let drawn = MapsDrawn::default();
+        commands.entity(entity).insert(HairShadowMaps { uniform, depth, layers, resolution: r, drawn });
     }
 }

@@ -21,7 +21,8 @@ pub type HairReceiverMaterial = ExtendedMaterial<StandardMaterial, HairReceiverE
 /// [`HairStrands`](super::HairStrands)): the light reaching each point through the hair's
 /// opacity maps dims Bevy's directional lights there, as Bevy's shadow maps do. Put it on an
 /// entity with a `Mesh3d`; it gets a [`HairReceiverMaterial`] over `base` once the hair's maps
-/// exist.
+/// have been drawn ([`HairShadowMaps::drawn`]), so it is never drawn with maps that hold nothing
+/// yet.
 ///
 /// ```no_run
 /// use bevy::prelude::*;
@@ -82,36 +83,35 @@ impl MaterialExtension for HairReceiverExtension {
     }
 }
 
-/// A receiver as [`attach`] sees it: whether it has been built, what is wrong.
-type Receiver<'a> = (Entity, Ref<'a, HairReceiver>, Has<MeshMaterial3d<HairReceiverMaterial>>, Mut<'a, Problems>);
+/// A receiver as [`attach`] sees it: its material, what is wrong.
+type Receiver<'a> =
+    (Entity, Ref<'a, HairReceiver>, Option<&'a MeshMaterial3d<HairReceiverMaterial>>, Mut<'a, Problems>);
 
-/// Builds each receiver whose hair has its maps and that is new, changed, or whose hair got new
-/// maps; a receiver naming an entity without `HairStrands` says so.
+/// Builds each receiver whose hair's maps have been drawn and that is new, changed, or reads
+/// other maps than its hair's; a receiver naming an entity without `HairStrands` says so.
 pub(crate) fn attach(
     mut commands: Commands,
     mut receivers: Query<Receiver>,
-    hairs: Query<(Has<super::HairStrands>, Option<Ref<HairShadowMaps>>)>,
+    hairs: Query<(Has<super::HairStrands>, Option<&HairShadowMaps>)>,
     mut materials: ResMut<Assets<HairReceiverMaterial>>,
 ) {
-    for (entity, receiver, built, mut problems) in &mut receivers {
+    for (entity, receiver, material, mut problems) in &mut receivers {
         let (is_hair, maps) = hairs.get(receiver.hair).map_or((false, None), |(h, m)| (h, m));
-        let stale = receiver.is_changed() || maps.as_ref().is_some_and(|m| m.is_changed());
-        if (built || problems.get(Check::Build).is_some()) && !stale {
-            continue;
-        }
-        match maps {
-            Some(maps) => {
-                let material =
-                    ExtendedMaterial { base: receiver.base.clone(), extension: HairReceiverExtension::new(&maps) };
-                commands.entity(entity).insert(MeshMaterial3d(materials.add(material)));
-                Problems::set(&mut problems, Check::Build, None);
-            }
-            None if !is_hair => {
+        let Some(maps) = maps else {
+            if !is_hair {
                 let message = format!("hair receiver {entity}: entity {} has no HairStrands", receiver.hair);
                 Problems::set(&mut problems, Check::Build, Some(message));
             }
-            None => {} // the hair gets its maps this frame
+            continue; // else the hair gets its maps this frame
+        };
+        Problems::set(&mut problems, Check::Build, None);
+        let current = material.and_then(|m| materials.get(&m.0)).is_some_and(|m| m.extension.depth == maps.depth);
+        // Maps not drawn yet hold nothing: the receiver waits for them (a frame).
+        if (current && !receiver.is_changed()) || !maps.drawn() {
+            continue;
         }
+        let material = ExtendedMaterial { base: receiver.base.clone(), extension: HairReceiverExtension::new(maps) };
+        commands.entity(entity).insert(MeshMaterial3d(materials.add(material)));
     }
 }
 

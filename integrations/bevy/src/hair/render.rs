@@ -528,10 +528,15 @@ fn opacity_maps(
         }
         renderer.render_opacity_maps(encoder);
         let (depth, layers) = renderer.opacity_maps();
+        let mut copied = 0;
         for (from, to) in [(depth, &h.maps.depth), (layers, &h.maps.layers)] {
             if let Some(image) = images.get(to) {
                 encoder.copy_texture_to_texture(from.as_image_copy(), image.texture.as_image_copy(), from.size());
+                copied += 1;
             }
+        }
+        if copied == 2 {
+            h.maps.set_drawn();
         }
     }
 }
