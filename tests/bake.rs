@@ -15,7 +15,9 @@ fn default_pipeline_bakes_validates_and_inspects() {
     let dir = Dir::with_default_pipeline("default_pipeline");
     let ids = job_ids(&String::from_utf8(dir.read("pipeline.ron")).unwrap());
     assert!(ids.len() >= 7, "{ids:?}");
-    assert!(out.contains(&format!("baked {}, skipped 0", ids.len())), "{out}");
+    // Every job baked, each said new.
+    assert!(out.contains(&format!("baked {} (", ids.len())) && out.contains("), skipped 0"), "{out}");
+    assert!(out.contains(&format!("{} (new)", ids[0])), "{out}");
     let bundle = root.join("bundle").display().to_string();
     let bundle = bundle.as_str();
     dir.run(&["validate", bundle]);
@@ -143,7 +145,7 @@ fn flipped_payload_byte_fails_validation_naming_the_asset() {
     assert_eq!(json["problems"][0]["asset"], "relief_bricks.maxmip");
     // The tampered asset is baked again rather than reused.
     let out = dir.run(&["bake"]);
-    assert!(stdout(&out).contains("baked 1,"), "{}", stdout(&out));
+    assert!(stdout(&out).contains("baked 1 (relief_bricks (payload damaged))"), "{}", stdout(&out));
     dir.run(&["validate", "bundle"]);
 }
 
@@ -162,7 +164,11 @@ fn changed_input_rebakes_one_job_and_removes_its_stale_payloads_once_no_reader_h
     // payloads go in the same commit (the bundle holds one generation, not two).
     rewrite(source.fliph());
     let out = dir.run(&["bake"]);
-    assert!(stdout(&out).contains("baked 1,") && stdout(&out).contains("removed 2"), "{}", stdout(&out));
+    assert!(
+        stdout(&out).contains("baked 1 (relief_fbm (input changed))") && stdout(&out).contains("removed 2"),
+        "{}",
+        stdout(&out)
+    );
     let after = dir.bundle_files("bundle");
     assert!(old(&before).iter().all(|k| !after.contains_key(k)), "stale payload kept");
     assert_eq!(after.len(), before.len());
@@ -173,7 +179,7 @@ fn changed_input_rebakes_one_job_and_removes_its_stale_payloads_once_no_reader_h
     let reader = hikage_bundle::Bundle::open(&dir.path("bundle")).unwrap();
     rewrite(source.flipv());
     let out = dir.run(&["bake"]);
-    assert!(stdout(&out).contains("baked 1,") && !stdout(&out).contains("removed"), "{}", stdout(&out));
+    assert!(stdout(&out).contains("baked 1 (") && !stdout(&out).contains("removed"), "{}", stdout(&out));
     for asset in &reader.manifest().assets {
         reader.read_payload(asset).expect("a reader of the replaced manifest finds every payload");
     }
@@ -218,7 +224,7 @@ fn identical_payloads_are_stored_once_until_one_changes() {
     let to = r#"Strands(id: "head", input: "data/head.hair", ribbons: true, color: (0.5, 0.4, 0.3))"#;
     dir.write("pipeline.ron", pipeline.replace(from, to));
     let out = dir.run(&["bake"]);
-    assert!(stdout(&out).contains("baked 1,"), "{}", stdout(&out));
+    assert!(stdout(&out).contains("baked 1 ("), "{}", stdout(&out));
     let after = manifest();
     let (own, head) = (file(&after, "head_auto.strips"), file(&after, "head.strips"));
     assert!(own.starts_with("head_auto.strips.") && head.starts_with("head.strips.") && head != shared, "{own} {head}");

@@ -162,7 +162,7 @@ fn hot_reload_names_exactly_the_changed_job() {
     assert!(all.reload().unwrap().is_empty(), "nothing changed yet");
     dir.write("a.png", png(22));
     let out = dir.run(&["bake"]);
-    assert!(stdout(&out).contains("baked 1,"), "{}", stdout(&out));
+    assert!(stdout(&out).contains("baked 1 ("), "{}", stdout(&out));
     let changes = all.reload().unwrap();
     assert_eq!(changes.changed, ["a.ao", "a.height", "a.horizon"]);
     assert!(changes.added.is_empty() && changes.removed.is_empty());

@@ -24,7 +24,8 @@ fn three_shards_merge_into_the_one_machine_bundle() {
     for (k, part) in parts.iter().enumerate() {
         let out = part.run(&["bake", "--shard", &format!("{k}/3")]);
         let line = crate::util::stdout(&out);
-        baked += line.split("baked ").nth(1).and_then(|s| s.split(',').next()).unwrap().parse::<usize>().unwrap();
+        baked +=
+            line.split("baked ").nth(1).and_then(|s| s.split([',', ' ']).next()).unwrap().parse::<usize>().unwrap();
         assert!(part.path("bundle/shard.ron").exists());
         // Rerunning a shard bakes nothing.
         assert!(crate::util::stdout(&part.run(&["bake", "--shard", &format!("{k}/3")])).contains("baked 0"));

@@ -366,6 +366,109 @@ fn each_level_of_a_pyramid_is_the_reduced_maps_whole_bake() {
     assert!(err.contains("lod") && err.contains("has no level 2") && err.contains("multiples of 4"), "{err}");
 }
 
+/// An edit of a small rectangle of the input rebakes exactly the tiles whose windows (the tile,
+/// its halo and border, at its level; a coarser level's traced back to the level-0 texels its
+/// nodes average) hold an edited sample, computed here from the windows' rule on its own; the
+/// bundle is then byte for byte a fresh bake of the edited map.
+#[test]
+fn an_edit_rebakes_only_the_tiles_whose_windows_it_touches() {
+    let dir = Dir::new("tiles_edit");
+    let pipeline = r#"(output: "bundle", jobs: [Horizon(id: "lod", input: "map.r32", raw_size: (150, 110),
+        texel_size: (2, 3), directions: 12, edge: Clamp, max_distance: 40, near_field: 6, ao: true, tile: 32,
+        levels: 9)])"#;
+    dir.write("pipeline.ron", pipeline);
+    let bytes = map_bytes();
+    dir.write("map.r32", &bytes);
+    dir.run(&["bake"]);
+    let hashes = |dir: &Dir| -> std::collections::BTreeMap<String, String> {
+        let bundle = Bundle::open(&dir.path("bundle")).unwrap();
+        bundle.manifest().assets.iter().map(|a| (a.id.clone(), a.input_hash.clone())).collect()
+    };
+    let before = hashes(&dir);
+    // Raise texels x 120–123, y 8–10 (level 0) by 5.
+    let edit = (120u32..124, 8u32..11);
+    let mut map: Vec<f32> = bytes.chunks_exact(4).map(|b| f32::from_le_bytes(b.try_into().unwrap())).collect();
+    for y in edit.1.clone() {
+        for x in edit.0.clone() {
+            map[(y * W + x) as usize] += 5.0;
+        }
+    }
+    let edited: Vec<u8> = map.iter().flat_map(|v| v.to_le_bytes()).collect();
+    dir.write("map.r32", &edited);
+    let out = crate::util::stdout(&dir.run(&["bake"]));
+    let after = hashes(&dir);
+    let rebaked: std::collections::BTreeSet<String> = after
+        .iter()
+        .filter(|(id, hash)| id.starts_with("lod.horizon") && before.get(*id) != Some(hash))
+        .map(|(id, _)| id.clone())
+        .collect();
+    // The windows, on their own: a tile of 33 texels every 32, grown by ⌈40 / texel⌉ + 3 on
+    // each side and kept inside the map; a level-k node covers the level-0 texels within 2^(k-1)
+    // of its own.
+    let mut expected = std::collections::BTreeSet::new();
+    for level in 0..4u32 {
+        let s = 1i64 << level;
+        let (w, h) = ((W as i64 - 1) / s + 1, (H as i64 - 1) / s + 1);
+        let halo = |texel: f64| (40.0 / (texel * s as f64)).ceil() as i64 + 3;
+        let (hx, hy) = (halo(2.0), halo(3.0));
+        let footprint = |lo: i64, hi: i64, size: i64| ((lo * s - s / 2).max(0), ((hi - 1) * s + s / 2).min(size - 1));
+        for ty in 0..((h - 1) as u32).div_ceil(32).max(1) as i64 {
+            for tx in 0..((w - 1) as u32).div_ceil(32).max(1) as i64 {
+                let (x0, y0) = (tx * 32, ty * 32);
+                let (x1, y1) = ((x0 + 33).min(w), (y0 + 33).min(h));
+                let (wx, wy) = (
+                    footprint((x0 - hx).max(0), (x1 + hx).min(w), W as i64),
+                    footprint((y0 - hy).max(0), (y1 + hy).min(h), H as i64),
+                );
+                let meets = |(lo, hi): (i64, i64), e: &std::ops::Range<u32>| lo < e.end as i64 && e.start as i64 <= hi;
+                let hit = meets(wx, &edit.0) && meets(wy, &edit.1);
+                if hit {
+                    expected.insert(format!(
+                        "lod.horizon{}",
+                        hikage_bundle::tiles::tile_suffix(level, (tx as u32, ty as u32))
+                    ));
+                }
+            }
+        }
+    }
+    eprintln!(
+        "{out}rebaked {} of {} tiles: {rebaked:?}",
+        rebaked.len(),
+        before.keys().filter(|k| k.starts_with("lod.horizon")).count()
+    );
+    assert_eq!(rebaked, expected);
+    assert!(
+        out.contains(&format!("baked {} ({} tiles of lod, input changed (level 0: ", expected.len(), expected.len())),
+        "{out}"
+    );
+    assert!(expected.len() < 29 / 2, "an edit in a corner rebakes a few of the 29 tiles: {expected:?}");
+    // Byte for byte a fresh bake of the edited map.
+    let fresh = Dir::new("tiles_edit_fresh");
+    fresh.write("pipeline.ron", pipeline);
+    fresh.write("map.r32", &edited);
+    fresh.run(&["bake"]);
+    assert_eq!(crate::util::snapshot(&dir.path("bundle")), crate::util::snapshot(&fresh.path("bundle")));
+    // `diff --format json` against the bake before the edit names each changed tile's map, level
+    // and texels: rebaked tiles whose output changed, each payload inside its tile's rectangle.
+    fresh.write("map.r32", &bytes);
+    fresh.write("pipeline.ron", pipeline.replace(r#"output: "bundle""#, r#"output: "before""#));
+    fresh.run(&["bake"]);
+    let out = fresh.run_expecting(&["diff", "before", "bundle", "--format", "json"], 1);
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let changed = report["assets"].as_array().unwrap();
+    assert!(!changed.is_empty());
+    for a in changed {
+        let (id, tile) = (a["id"].as_str().unwrap(), &a["tile"]);
+        let level = tile["level"].as_u64().unwrap() as u32;
+        let index = (tile["index"][0].as_u64().unwrap() as u32, tile["index"][1].as_u64().unwrap() as u32);
+        let suffix = hikage_bundle::tiles::tile_suffix(level, index);
+        assert!(expected.contains(&format!("lod.horizon{suffix}")), "{id} changed but was not rebaked");
+        assert!(id.ends_with(&suffix) && tile["map"] == "lod", "{a}");
+        let rect: Vec<u64> = tile["rect"].as_array().unwrap().iter().map(|v| v.as_u64().unwrap()).collect();
+        assert_eq!(rect[..2], [index.0 as u64 * 32, index.1 as u64 * 32], "{a}");
+    }
+}
+
 /// The table and `bundle.ron` of `dir/b` with the table's records changed by `edit` (and the
 /// manifest's hash, name and length of the table kept in step), as a hostile writer would.
 fn edit_records(dir: &Dir, edit: impl FnOnce(&mut Vec<[u8; 100]>)) {

@@ -155,6 +155,7 @@ fn compare(args: &DiffArgs) -> Result<Vec<String>, Failure> {
                         "beyond_tolerance": d.beyond(),
                         "note": d.note,
                         "measures": d.measures,
+                        "tile": tile_of(&new, &d.id).or_else(|| tile_of(&old, &d.id)),
                     })
                 }).collect::<Vec<_>>(),
             }))?
@@ -183,6 +184,21 @@ fn compare(args: &DiffArgs) -> Result<Vec<String>, Failure> {
         }
     }
     Ok(beyond.into_iter().map(String::from).collect())
+}
+
+/// Where asset `id` of `bundle` lies when it is a tile (its map, level, index, and its texels at
+/// its level: first column and row, width, height), for a build that republishes only the
+/// changed tiles' files; `None` for any other asset.
+fn tile_of(bundle: &Bundle, id: &str) -> Option<serde_json::Value> {
+    let asset = bundle.asset(id).ok()?;
+    let (place, texture) = (asset.settings.tile()?, asset.payload.texture()?);
+    Some(serde_json::json!({
+        "map": place.map,
+        "level": place.level,
+        "index": [place.index.0, place.index.1],
+        "rect": [place.origin.0, place.origin.1, texture.width, texture.height],
+        "file": asset.file,
+    }))
 }
 
 /// A figure with as many digits as it needs: counts whole, others to 4 significant digits.

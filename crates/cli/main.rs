@@ -342,9 +342,10 @@ fn bake(
     observer.finish();
     let report = report?;
     out!(
-        "{}: baked {}, skipped {}{}{}",
+        "{}: baked {}{}, skipped {}{}{}",
         report.bundle.display(),
         report.baked.len(),
+        report.rebaked_summary().map_or(String::new(), |s| format!(" ({s})")),
         report.skipped.len(),
         if report.cached.is_empty() { String::new() } else { format!(", from the cache {}", report.cached.len()) },
         if report.removed.is_empty() {

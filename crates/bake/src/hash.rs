@@ -34,14 +34,6 @@ pub(crate) fn job_hash(job: &HashedJob) -> Result<String, BakeError> {
     Ok(h.finalize().to_hex().to_string())
 }
 
-/// The BLAKE3 of a file's bytes, read a block at a time (inputs may be larger than memory).
-pub(crate) fn file_digest(path: &Path) -> Result<String, BakeError> {
-    let len = hikage_bundle::files::regular_metadata(path).map_err(|e| BakeError::io(path, e))?.len();
-    let mut h = blake3::Hasher::new();
-    stream(path, len, &mut h)?;
-    Ok(h.finalize().to_hex().to_string())
-}
-
 /// Feeds the `len` bytes of the file at `path` to `h`; an error if the file is not `len` long
 /// by the time it has been read (it changed while being hashed).
 fn stream(path: &Path, len: u64, h: &mut blake3::Hasher) -> Result<(), BakeError> {

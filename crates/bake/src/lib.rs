@@ -40,6 +40,7 @@ mod limits;
 pub mod mesh;
 pub mod pipeline;
 pub mod relief;
+pub mod report;
 pub mod run;
 pub mod shard;
 #[cfg(feature = "png")]
@@ -49,7 +50,8 @@ pub mod strands;
 pub use compression::Compression;
 pub use error::BakeError;
 pub use heightfield::{Heightfield, LoadOptions};
-pub use jobs::{Baker, Job};
+pub use jobs::{Baker, Job, TileArea};
 pub use limits::InputLimits;
 pub use pipeline::Pipeline;
+pub use report::{Reason, Rebaked};
 pub use run::{Observer, RunOptions, RunReport, run_pipeline};

@@ -72,6 +72,8 @@ pub struct RunReport {
     pub bundle: PathBuf,
     /// Jobs baked.
     pub baked: Vec<String>,
+    /// Why each job of `baked` was baked, and where it lies when it is a tile.
+    pub rebaked: Vec<crate::report::Rebaked>,
     /// Jobs skipped because their inputs had not changed.
     pub skipped: Vec<String>,
     /// Jobs whose assets came from the cache.
@@ -290,6 +292,21 @@ fn run_job(
             .map_err(|e| loaded.baked_error(run.index, &id, e))?,
         );
     }
+    let previous: Vec<_> = outputs
+        .iter()
+        .filter_map(|o| writer.previous().and_then(|m| m.asset(o)).map(|a| a.input_hash.clone()))
+        .collect();
+    use crate::report::{Reason, Rebaked};
+    let reason = if options.force {
+        Reason::Forced
+    } else if previous.is_empty() {
+        Reason::New
+    } else if previous.iter().any(|h| *h != hash) || previous.len() < outputs.len() {
+        Reason::Changed
+    } else {
+        Reason::Damaged
+    };
+    report.rebaked.push(Rebaked { id: id.clone(), reason, tile: job.tile_area() });
     report.baked.push(id.clone());
     options.observer.job_finished(&id, false);
     Ok(Some((hash, made)))

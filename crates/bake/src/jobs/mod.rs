@@ -117,6 +117,23 @@ pub trait Baker: Sync {
     fn parts(&self, _ctx: &JobContext) -> Result<Option<Vec<Box<dyn Baker>>>, BakeError> {
         Ok(None)
     }
+
+    /// Where a part that is one tile of a map lies ([`TileArea`]); `None` for a job baked whole.
+    fn tile_area(&self) -> Option<TileArea> {
+        None
+    }
+}
+
+/// Where one tile of a tiled job lies: its map, its level of detail and its texels in that
+/// level (column, row, width, height), for saying what a bake rebaked.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TileArea {
+    /// The tiled job's id.
+    pub map: String,
+    /// Level of detail (0: the map as baked; `k`: reduced by `2^k`).
+    pub level: u32,
+    /// The tile's texels at its level: first column and row, width and height.
+    pub rect: (u32, u32, u32, u32),
 }
 
 /// A job as the runner bakes it: a pipeline's job, or a part of one ([`Baker::parts`]).

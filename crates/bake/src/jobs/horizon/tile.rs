@@ -9,9 +9,12 @@
 //! heights, horizon texture and, with `ao`, occlusion, each with a [`TilePlacement`]. Its
 //! texels are those the whole-map bake has there (`horizon::bake_tile`).
 //!
-//! A tile's input hash covers the job's settings, the tile's index and the input file's
-//! BLAKE3, taken once for all tiles when the job is split: hashing the whole input again per
-//! tile would cost more than many tiles' bakes.
+//! A tile's input hash covers the job's settings, the tile's index and the samples it reads:
+//! its window (the tile, its halo and the interpolation border) at its level, level 0's as read
+//! and a coarser level's as reduced, voids filled. Only those: an edit rebakes exactly the tiles
+//! whose windows hold a changed sample, and the coarser tiles whose reduced windows change. The
+//! windows are read and hashed when the job is split, through the same reads the bake makes
+//! (raw, TIFF and `.hgt` grids a window at a time; PNG and EXR decoded once).
 
 use std::path::{Path, PathBuf};
 
@@ -37,22 +40,21 @@ pub struct HorizonTileJob {
     place: TileWindow,
     /// The input's size (level 0).
     map: (u32, u32),
-    /// BLAKE3 of the input file, which the tile's input hash stands on.
+    /// BLAKE3 of the samples the tile reads (its window at its level), which its input hash
+    /// stands on.
     input_digest: String,
     /// The value the input's voids take (its lowest valid sample), found once for all tiles.
     void_fill: Option<f32>,
 }
 
-/// Splits `job` into its tiles of `size` texels, reading the input's header, hashing it once,
-/// and finding the value of its voids.
+/// Splits `job` into its tiles of `size` texels, reading the input's header, finding the value
+/// of its voids, and hashing each tile's window.
 pub(super) fn tiles(job: &HorizonJob, size: u32, ctx: &JobContext) -> Result<Vec<Box<dyn Baker>>, BakeError> {
     let limits = ctx.limits;
-    let path = job.source.path(ctx.base_dir);
     let setting = |message: String| ctx.setting(&job.id, message);
     let mut source = job.source.open(ctx)?;
     let map = source.size();
     let void_fill = source.void_fill()?;
-    let input_digest = crate::hash::file_digest(&path)?;
     let mut parts: Vec<Box<dyn Baker>> = Vec::new();
     // Tiles start every `size` texels and hold one more, the next tile's first column and row:
     // a mesh through texel centres then meets its neighbour's without a crack.
@@ -75,6 +77,13 @@ pub(super) fn tiles(job: &HorizonJob, size: u32, ctx: &JobContext) -> Result<Vec
                         rect.width, rect.height, job.options.max_distance, limits.max_dimension
                     )));
                 }
+                let samples = read_window(&mut source, (map, level, job.options.edge), place.window, void_fill)?;
+                let mut digest = blake3::Hasher::new();
+                let (normalized, channel) = source.channel();
+                digest.update(format!("map={map:?};normalized={normalized};channel={channel};").as_bytes());
+                for chunk in samples.chunks(1 << 16) {
+                    digest.update(&chunk.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>());
+                }
                 parts.push(Box::new(HorizonTileJob {
                     id: hikage_bundle::tiles::tile_id(&job.id, level, (tx, ty)),
                     job: job.clone(),
@@ -82,7 +91,7 @@ pub(super) fn tiles(job: &HorizonJob, size: u32, ctx: &JobContext) -> Result<Vec
                     index: (tx, ty),
                     place,
                     map,
-                    input_digest: input_digest.clone(),
+                    input_digest: digest.finalize().to_hex().to_string(),
                     void_fill,
                 }));
             }
@@ -92,6 +101,21 @@ pub(super) fn tiles(job: &HorizonJob, size: u32, ctx: &JobContext) -> Result<Vec
         }
     }
     Ok(parts)
+}
+
+/// The samples of `window` (in the level's texels) at `level` of the map of `file`: level 0's as
+/// read, a coarser level's reduced from them; voids take `fill`.
+fn read_window(
+    file: &mut crate::heightfield::HeightFile,
+    (map, level, edge): ((u32, u32), u32, hikage_bundle::EdgeMode),
+    window: Rect<i64>,
+    fill: Option<f32>,
+) -> Result<Vec<f32>, BakeError> {
+    if level == 0 {
+        file.read_window((window.x, window.y), (window.width, window.height), fill)
+    } else {
+        horizon::pyramid::read_reduced(file, map, level, edge, window, fill)
+    }
 }
 
 impl HorizonTileJob {
@@ -134,7 +158,8 @@ impl Baker for HorizonTileJob {
         self.job.algorithm_version()
     }
 
-    /// None: the input file is hashed once for every tile, its BLAKE3 part of the settings.
+    /// None: the samples the tile reads are hashed when the job is split, their BLAKE3 part of
+    /// the settings.
     fn inputs(&self, _base_dir: &Path) -> Vec<PathBuf> {
         Vec::new()
     }
@@ -147,7 +172,7 @@ impl Baker for HorizonTileJob {
         // The level only when above 0, so level-0 tiles keep their hash's form.
         let level = if self.level > 0 { format!(";level={}", self.level) } else { String::new() };
         format!(
-            "{};tile_index=({},{}){level};input_blake3={}",
+            "{};tile_index=({},{}){level};window_blake3={}",
             self.job.canonical_settings(),
             self.index.0,
             self.index.1,
@@ -157,6 +182,11 @@ impl Baker for HorizonTileJob {
 
     fn check(&self) -> Result<(), String> {
         self.job.check()
+    }
+
+    fn tile_area(&self) -> Option<crate::jobs::TileArea> {
+        let Rect { x, y, width, height } = self.place.tile;
+        Some(crate::jobs::TileArea { map: self.job.id.clone(), level: self.level, rect: (x, y, width, height) })
     }
 
     fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
@@ -177,16 +207,13 @@ impl Baker for HorizonTileJob {
         }
         let Rect { x: wx, y: wy, width: ww, height: wh } = self.place.window;
         let heights = &self.job.source;
-        let samples = if self.level == 0 {
-            let samples = source.read_window((wx, wy), (ww, wh), self.void_fill)?;
+        let edge = self.job.options.edge;
+        let samples = read_window(&mut source, (self.map, self.level, edge), self.place.window, self.void_fill)?;
+        if self.level == 0 {
             // The checks a whole-map load makes, on the samples this tile reads (level 0
             // reads every sample a coarser level reduces).
             heights.check_samples(&path, &samples, ((wx, wy), ww, self.map), &self.job.sample_check())?;
-            samples
-        } else {
-            let edge = self.job.options.edge;
-            horizon::pyramid::read_reduced(&mut source, self.map, self.level, edge, self.place.window, self.void_fill)?
-        };
+        }
         let (normalized, source_channel) = source.channel();
         let s = (1u32 << self.level) as f32;
         let window = Heightfield {
