@@ -265,3 +265,92 @@ fn fly(
         );
     }
 }
+
+/// A rebake after an edit, taken up by `TerrainStream::reload`: the resident tiles whose files
+/// (or whose neighbours' heights) changed are read again — exactly those, found here from the
+/// two manifests — the others stay; every frame in between draws the whole map; and the frame
+/// after is a fresh stream's of the edited bundle, pixel for pixel.
+#[test]
+fn a_reload_reads_again_only_the_changed_tiles() {
+    let Some(g) = gpu("a_reload_reads_again_only_the_changed_tiles") else { return };
+    let (n, tile) = (256u32, 32u32);
+    let dir = bake("gpu_stream_reload", n, tile, 8);
+    let stream_options =
+        StreamOptions { detail: 1e9, resident_bytes: 1 << 30, upload_bytes: 1 << 30, ..StreamOptions::default() };
+    let half = n as f32 * TEXEL / 2.0;
+    let eye = Vec3::new(half, 2000.0, half);
+    let view_proj = directx::orthographic(-half, half, -half, half, 100.0, 4000.0)
+        * look_at_mat4(eye, Vec3::new(half, 0.0, half), Vec3::NEG_Z);
+    let frame = TerrainFrame { view_proj, sun: low_sun(), ..TerrainFrame::default() };
+    let tiles = ((n / tile) * (n / tile)) as usize;
+    // Until every tile wanted is held; with `whole`, every frame draws level 0 everywhere.
+    let settle = |stream: &mut TerrainStream, whole: bool| {
+        for _ in 0..20_000 {
+            let stats = stream.update(&g.device, &g.queue, &frame, eye).unwrap();
+            assert!(!whole || (stats.drawn, stats.finest_drawn) == (tiles, 0), "{stats:?}");
+            if stats.missing == 0 && stats.finest_drawn == 0 {
+                return;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(2));
+        }
+        panic!("never settled");
+    };
+    let mut stream = TerrainStream::open(&g.device, &g.queue, &dir, "dem", &options(), stream_options).unwrap();
+    settle(&mut stream, false);
+    let index = |dir: &std::path::Path| hikage_runtime::hikage_bundle::tiles::TileIndex::open(dir).unwrap();
+    let before = index(&dir);
+
+    // Raise a 12×12-texel square by 40 m and bake again in place.
+    let base = dir.parent().unwrap();
+    let mut heights: Vec<f32> = std::fs::read(base.join("dem.r32"))
+        .unwrap()
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
+        .collect();
+    for y in 100..112 {
+        for x in 40..52 {
+            heights[y * n as usize + x] += 40.0 / 300.0;
+        }
+    }
+    std::fs::write(base.join("dem.r32"), heights.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>()).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_hikage")).arg("bake").current_dir(base).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let after = index(&dir);
+    // The tiles whose own payloads or whose neighbours' heights changed, of every level (with
+    // level 0 wanted everywhere and room for all, the stream holds every tile of the pyramid).
+    let entry = |i: &hikage_runtime::hikage_bundle::tiles::TileIndex, part: &str, (l, x, y): (u32, u32, u32)| {
+        i.tile(&format!("dem.{part}"), l, (x, y)).map(|a| a.blake3)
+    };
+    let held: Vec<(u32, u32, u32)> = (0..4u32)
+        .flat_map(|l| {
+            let grid = ((n >> l) - 1).div_ceil(tile).max(1);
+            (0..grid).flat_map(move |y| (0..grid).map(move |x| (l, x, y)))
+        })
+        .collect();
+    let changed = held
+        .iter()
+        .filter(|&&(l, x, y)| {
+            let moved = |k| ["height", "horizon", "ao"].iter().any(|p| entry(&before, p, k) != entry(&after, p, k));
+            let side = |dx: i64, dy: i64| {
+                let k = (l, (x as i64 + dx) as u32, (y as i64 + dy) as u32);
+                entry(&before, "height", k) != entry(&after, "height", k)
+            };
+            moved((l, x, y)) || side(-1, 0) || side(1, 0) || side(0, -1) || side(0, 1)
+        })
+        .count();
+    let resident = stream.update(&g.device, &g.queue, &frame, eye).unwrap().resident_tiles;
+    assert_eq!(resident, held.len(), "every tile of the pyramid held");
+    let (kept, again) = stream.reload(&dir).unwrap();
+    assert_eq!(kept + again, resident);
+    eprintln!("reload: {kept} tiles kept, {again} read again ({changed} changed by the manifests)");
+    assert!(changed > 0 && changed < held.len() / 4, "{changed}");
+    assert_eq!(again, changed);
+    // The changed tiles are drawn as they were until their new versions are up: no frame lacks
+    // a tile.
+    settle(&mut stream, true);
+    let a = g.render((n, n), wgpu::Color::BLACK, |pass| stream.draw(pass));
+    let mut fresh = TerrainStream::open(&g.device, &g.queue, &dir, "dem", &options(), stream_options).unwrap();
+    settle(&mut fresh, false);
+    let b = g.render((n, n), wgpu::Color::BLACK, |pass| fresh.draw(pass));
+    assert!(a.color == b.color && a.visibility == b.visibility, "the reloaded stream draws as a fresh one");
+}

@@ -22,8 +22,8 @@ use bevy_tasks::{AsyncComputeTaskPool, Task};
 use bevy_transform::components::{GlobalTransform, Transform};
 use hikage_bundle::{Asset as Entry, Limits, Manifest, TextureData};
 use hikage_runtime::horizon::{
-    BudgetShortfall, HorizonEncoding, MAX_PENDING_TILES, MAX_TILE_SIDE, StreamOptions, StreamStats, TileKey,
-    TileLayout, TilePlan, apron_neighbours, heights_with_apron,
+    BudgetShortfall, HorizonEncoding, MAX_TILE_SIDE, StreamOptions, StreamStats, TileKey, TileLayout, TileReads,
+    TileResidency, TileStore, apron_neighbours, heights_with_apron, tile_unchanged,
 };
 
 use hikage_runtime::glam::Vec2;
@@ -141,22 +141,17 @@ impl SunShadowed for StreamedTerrain {}
 /// The stream of one [`StreamedTerrain`] (on its entity).
 #[derive(Component)]
 pub(crate) struct Streaming {
-    /// The bundle it was built from (a reload builds it again).
+    /// The bundle it was built from (a rebake builds it again, keeping the unchanged tiles).
     bundle: AssetId<HikageBundle>,
     layout: TileLayout,
-    /// Where the tiles' files are: the manifest's asset source and directory.
-    source: AssetSourceId<'static>,
-    dir: PathBuf,
     /// What a tile of each level holds (its tile `(0, 0)`, the largest).
     level_bytes: Vec<u64>,
-    /// The manifest the tiles are read by.
-    manifest: Arc<Manifest>,
     /// The budget's shortfall for level 0 under the camera, said as a `HikageError`.
     shortfall: Option<BudgetShortfall>,
-    resident: HashMap<TileKey, Resident>,
-    pending: HashMap<TileKey, Task<Result<Loaded, String>>>,
-    ready: Vec<(TileKey, Loaded)>,
-    frame: u64,
+    /// The tiles held and waiting to be added.
+    residency: TileResidency<Resident, Loaded>,
+    /// The tiles being read, and the manifest and files they are read from.
+    reads: TaskReads,
     /// The map as its receivers' sun field sees it, or why it cannot have one.
     pub(crate) field: Result<FieldMap, String>,
     /// This stream among all streams built (a rebuilt stream gets a new field).
@@ -168,18 +163,89 @@ pub(crate) struct Streaming {
 impl Streaming {
     /// What the sun field reads of the tiles drawn now.
     pub(crate) fn drawn_pieces(&self) -> impl Iterator<Item = &FieldPiece> {
-        self.drawn.iter().filter_map(|k| self.resident.get(k)).map(|r| &r.piece)
+        self.drawn.iter().filter_map(|k| self.residency.get(*k)).map(|r| &r.piece)
     }
 }
 
-/// A tile's entity and what it holds.
+/// A tile's entity, whether it is shown, and what the terrain's sun field reads of it.
 struct Resident {
     entity: Entity,
-    bytes: u64,
-    last_used: u64,
     shown: bool,
-    /// What the terrain's sun field reads of it.
     piece: FieldPiece,
+}
+
+/// The tiles being read on the async compute task pool, and what starting a read needs.
+struct TaskReads {
+    tasks: HashMap<TileKey, Task<Result<Loaded, String>>>,
+    server: AssetServer,
+    source: AssetSourceId<'static>,
+    dir: PathBuf,
+    manifest: Arc<Manifest>,
+    layout: TileLayout,
+    features: hikage_runtime::wgpu::Features,
+    skirt_texels: f32,
+}
+
+impl TileReads<Loaded, String> for TaskReads {
+    fn finished(&mut self) -> Vec<(TileKey, Result<Loaded, String>)> {
+        let mut done = Vec::new();
+        for (key, task) in self.tasks.iter_mut() {
+            if let Some(result) = bevy_tasks::futures::check_ready(task) {
+                done.push((*key, result));
+            }
+        }
+        for (key, _) in &done {
+            self.tasks.remove(key);
+        }
+        done
+    }
+
+    /// Dropping a task stops its read.
+    fn retain(&mut self, wanted: &dyn Fn(TileKey) -> bool) {
+        self.tasks.retain(|key, _| wanted(*key));
+    }
+
+    fn reading(&self, key: TileKey) -> bool {
+        self.tasks.contains_key(&key)
+    }
+
+    fn in_flight(&self) -> usize {
+        self.tasks.len()
+    }
+
+    fn start(&mut self, key: TileKey) -> Result<(), String> {
+        let request = request(&self.manifest, &self.layout, key)?;
+        let task = read_tile(self, request);
+        self.tasks.insert(key, task);
+        Ok(())
+    }
+}
+
+/// The world as the residency adds tiles to it: child entities of the terrain.
+struct TileEntities<'a, 'w, 's, 't> {
+    commands: &'a mut Commands<'w, 's>,
+    assets: &'a mut TileAssets<'t>,
+    base: &'a StandardMaterial,
+    layout: &'a TileLayout,
+    parent: Entity,
+    no_shadow: bool,
+}
+
+impl TileStore<Resident, Loaded, String> for TileEntities<'_, '_, '_, '_> {
+    fn bytes(&self, loaded: &Loaded) -> u64 {
+        loaded.bytes
+    }
+
+    fn add(&mut self, key: TileKey, loaded: Loaded) -> Result<(Resident, u64), String> {
+        let bytes = loaded.bytes;
+        let (entity, piece) =
+            add_tile(self.commands, self.assets, self.base, self.layout, key, loaded, self.parent, self.no_shadow);
+        Ok((Resident { entity, shown: false, piece }, bytes))
+    }
+
+    fn evict(&mut self, _key: TileKey, tile: Resident) {
+        self.commands.entity(tile.entity).despawn();
+    }
 }
 
 /// A tile read and made ready to add.
@@ -241,9 +307,10 @@ pub(crate) fn stream_terrain(
         events.read().filter_map(|e| if let AssetEvent::Modified { id } = e { Some(*id) } else { None }).collect();
     let eye = cameras.iter().find(|(c, _)| c.is_active).map(|(_, t)| t.translation());
     for (entity, terrain, placed, mut streaming, mut problems, mut stats, no_shadow) in &mut terrains {
-        let stale = streaming
-            .as_ref()
-            .is_none_or(|s| terrain.is_changed() || reloaded.contains(&s.bundle) || s.bundle != terrain.bundle.id());
+        let rebaked =
+            streaming.as_ref().is_some_and(|s| reloaded.contains(&s.bundle) && s.bundle == terrain.bundle.id());
+        let stale =
+            streaming.as_ref().is_none_or(|s| terrain.is_changed() || rebaked || s.bundle != terrain.bundle.id());
         if stale {
             // The loaded bundle's manifest; before it has loaded (its other assets read and
             // checked), the manifest read on its own, so tiles stream from the first frames.
@@ -257,18 +324,32 @@ pub(crate) fn stream_terrain(
             {
                 continue;
             }
-            if let Some(old) = streaming.as_mut() {
-                for r in old.resident.values() {
-                    commands.entity(r.entity).despawn();
-                }
-                old.resident.clear();
-            }
-            match start(&server, &terrain, manifest) {
-                Ok(s) => {
+            let features = loader.0.device_features();
+            match start(&server, &terrain, manifest, features) {
+                Ok(mut s) => {
                     Problems::set(&mut problems, Check::Build, None);
                     Problems::set(&mut problems, Check::Budget, s.shortfall.as_ref().map(ToString::to_string));
                     match streaming.as_mut() {
-                        Some(old) => **old = s,
+                        // A rebake of the same tiling keeps the tiles it left as they were, and
+                        // draws the others until their new versions are added.
+                        Some(old) if rebaked && !terrain.is_changed() && old.layout == s.layout => {
+                            let (before, after) = (old.reads.manifest.clone(), s.reads.manifest.clone());
+                            let parts = &s.layout.parts;
+                            let unchanged = |key: TileKey| {
+                                tile_unchanged(parts, key, |part, k| {
+                                    let id = TileLayout::tile_id(part, k);
+                                    (before.asset(&id).cloned(), after.asset(&id).cloned())
+                                })
+                            };
+                            old.residency.reload(unchanged);
+                            s.residency = std::mem::take(&mut old.residency);
+                            s.generation = old.generation;
+                            **old = s;
+                        }
+                        Some(old) => {
+                            old.residency.clear(|_, r| commands.entity(r.entity).despawn());
+                            **old = s;
+                        }
                         None => {
                             commands.entity(entity).insert(s);
                             continue;
@@ -276,7 +357,8 @@ pub(crate) fn stream_terrain(
                     }
                 }
                 Err(message) => {
-                    if streaming.is_some() {
+                    if let Some(old) = streaming.as_mut() {
+                        old.residency.clear(|_, r| commands.entity(r.entity).despawn());
                         commands.entity(entity).remove::<Streaming>();
                     }
                     Problems::set(&mut problems, Check::Build, Some(message));
@@ -288,87 +370,31 @@ pub(crate) fn stream_terrain(
             continue;
         };
         let cam = placed.affine().inverse().transform_point3(eye);
-        let options = &terrain.options;
-        s.frame += 1;
-        let plan = s.layout.plan((cam.x, cam.z), options, |k| s.resident.contains_key(&k));
-        // What the task pool finished; what is no longer wanted is dropped (and its read stopped).
-        let mut failure = None;
-        let mut finished = Vec::new();
-        for (key, task) in s.pending.iter_mut() {
-            if let Some(result) = bevy_tasks::futures::check_ready(task) {
-                finished.push(*key);
-                match result {
-                    Ok(loaded) => s.ready.push((*key, loaded)),
-                    Err(e) => failure = failure.or(Some(e)),
-                }
-            }
-        }
-        for key in finished {
-            s.pending.remove(&key);
-        }
-        s.pending.retain(|key, _| plan.rank(*key).is_some());
-        s.ready.retain(|(key, _)| plan.rank(*key).is_some() && !s.resident.contains_key(key));
-        s.ready.sort_by_key(|(key, _)| std::cmp::Reverse(plan.rank(*key)));
-        // Requests, the coarsest level first, then in the plan's order, of what the budget holds.
-        let affordable = plan.affordable(options.resident_bytes, |k| s.level_bytes[k.0 as usize]);
-        for &key in affordable {
-            if s.pending.len() >= MAX_PENDING_TILES {
-                break;
-            }
-            let queued = s.pending.contains_key(&key) || s.ready.iter().any(|(k, _)| *k == key);
-            if s.resident.contains_key(&key) || queued {
-                continue;
-            }
-            match request(&s.manifest, &s.layout, key) {
-                Ok(r) => {
-                    let task = read_tile(&server, s, r, loader.0.device_features(), options);
-                    s.pending.insert(key, task);
-                }
-                Err(e) => failure = failure.or(Some(e)),
-            }
-        }
-        // New tiles within the frame's budget, most wanted first, making room by evicting.
-        let mut uploaded = 0u64;
-        while let Some((key, loaded)) = s.ready.pop() {
-            if uploaded + loaded.bytes > options.upload_bytes
-                || !make_room(&mut commands, s, loaded.bytes, affordable.len(), &plan, options.resident_bytes)
-            {
-                s.ready.push((key, loaded));
-                break;
-            }
-            uploaded += loaded.bytes;
-            let bytes = loaded.bytes;
-            let (tile, piece) =
-                add_tile(&mut commands, &mut assets, &terrain.base, &s.layout, key, loaded, entity, no_shadow);
-            s.resident.insert(key, Resident { entity: tile, bytes, last_used: s.frame, shown: false, piece });
-        }
-        // Show the tiles drawn now that tiles came and went (an evicted tile's area falls back to
-        // its coarser tile, which stays while finer tiles hang from it; a tile added above shows
-        // once its mesh and material are ready).
-        let plan = s.layout.plan((cam.x, cam.z), options, |k| s.resident.contains_key(&k));
-        s.drawn.clone_from(&plan.drawn);
-        let drawn: std::collections::HashSet<TileKey> = plan.drawn.iter().copied().collect();
-        for (key, r) in s.resident.iter_mut() {
-            let show = drawn.contains(key);
-            if show {
-                r.last_used = s.frame;
-            }
+        let mut store = TileEntities {
+            commands: &mut commands,
+            assets: &mut assets,
+            base: &terrain.base,
+            layout: &s.layout,
+            parent: entity,
+            no_shadow,
+        };
+        let done =
+            s.residency.frame((&s.layout, &terrain.options, &s.level_bytes), (cam.x, cam.z), &mut s.reads, &mut store);
+        // Show the tiles drawn now (a tile added this frame shows once its mesh and material
+        // are ready; an evicted tile's area falls back to its coarser tile).
+        let drawn: std::collections::HashSet<TileKey> = done.drawn.iter().copied().collect();
+        for (key, r) in s.residency.iter_mut() {
+            let show = drawn.contains(&key);
             if show != r.shown {
                 r.shown = show;
                 let visibility = if show { Visibility::Inherited } else { Visibility::Hidden };
                 commands.entity(r.entity).insert(visibility);
             }
         }
-        stats.0 = StreamStats {
-            resident_tiles: s.resident.len(),
-            resident_bytes: s.resident.values().map(|r| r.bytes).sum(),
-            uploaded_bytes: uploaded,
-            drawn: plan.drawn.len(),
-            missing: plan.wanted.iter().filter(|k| !s.resident.contains_key(k)).count(),
-            finest_drawn: plan.drawn.iter().map(|k| k.0).min().unwrap_or(s.layout.coarsest()),
-        };
-        if failure.is_some() || problems.get(Check::Tiles).is_some() {
-            Problems::set(&mut problems, Check::Tiles, failure);
+        s.drawn = done.drawn;
+        stats.0 = done.stats;
+        if done.failure.is_some() || problems.get(Check::Tiles).is_some() {
+            Problems::set(&mut problems, Check::Tiles, done.failure);
         }
     }
 }
@@ -425,7 +451,12 @@ async fn read_source(server: &AssetServer, source: &AssetSourceId<'static>, path
 
 /// The stream of `terrain` over its bundle's `manifest`: the layout of its tiles, checked
 /// against the budgets before anything is read; or why not.
-fn start(server: &AssetServer, terrain: &StreamedTerrain, manifest: Arc<Manifest>) -> Result<Streaming, String> {
+fn start(
+    server: &AssetServer,
+    terrain: &StreamedTerrain,
+    manifest: Arc<Manifest>,
+    features: hikage_runtime::wgpu::Features,
+) -> Result<Streaming, String> {
     let entry = |part: &str, key: TileKey| manifest.asset(&TileLayout::tile_id(part, key)).cloned();
     let layout = TileLayout::new(&terrain.map, |part, level, (x, y)| entry(part, (level, x, y)))
         .map_err(|e| format!("map `{}`: {e}", terrain.map))?;
@@ -467,21 +498,26 @@ fn start(server: &AssetServer, terrain: &StreamedTerrain, manifest: Arc<Manifest
     let shortfall = layout.budget_shortfall(options, |k| level_bytes[k.0 as usize]);
     let path = server.get_path(terrain.bundle.id()).ok_or("the bundle has no asset path")?;
     static STREAMS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let reads = TaskReads {
+        tasks: HashMap::new(),
+        server: server.clone(),
+        source: path.source().clone_owned(),
+        dir: path.path().parent().map(Path::to_path_buf).unwrap_or_default(),
+        manifest: manifest.clone(),
+        layout: layout.clone(),
+        features,
+        skirt_texels: options.skirt_texels,
+    };
     Ok(Streaming {
         field: field_map(&terrain.map, &layout, entry(&layout.parts.horizon, (0, 0, 0))),
         generation: STREAMS.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         drawn: Vec::new(),
-        manifest,
         shortfall,
         bundle: terrain.bundle.id(),
         layout,
         level_bytes,
-        source: path.source().clone_owned(),
-        dir: path.path().parent().map(Path::to_path_buf).unwrap_or_default(),
-        resident: HashMap::new(),
-        pending: HashMap::new(),
-        ready: Vec::new(),
-        frame: 0,
+        residency: TileResidency::default(),
+        reads,
     })
 }
 
@@ -527,15 +563,9 @@ fn request(manifest: &Manifest, layout: &TileLayout, key: TileKey) -> Result<Req
 }
 
 /// Starts reading tile `r` on the async compute task pool.
-fn read_tile(
-    server: &AssetServer,
-    s: &Streaming,
-    r: Request,
-    features: hikage_runtime::wgpu::Features,
-    options: &StreamOptions,
-) -> Task<Result<Loaded, String>> {
-    let (server, source, dir) = (server.clone(), s.source.clone(), s.dir.clone());
-    let skirt_texels = options.skirt_texels;
+fn read_tile(reads: &TaskReads, r: Request) -> Task<Result<Loaded, String>> {
+    let (server, source, dir) = (reads.server.clone(), reads.source.clone(), reads.dir.clone());
+    let (skirt_texels, features) = (reads.skirt_texels, reads.features);
     AsyncComputeTaskPool::get().spawn(async move {
         let read = async |entry: &Entry| -> Result<Vec<u8>, String> {
             let path = dir.join(&entry.file);
@@ -594,31 +624,6 @@ fn read_tile(
             + 4 * indices;
         Ok(Loaded { mesh, bounds, horizon, ao, uniform, heights, constants, bytes })
     })
-}
-
-/// Evicts tiles until `bytes` more fit `budget`, in the order [`TilePlan::victim`] gives with
-/// the plan's first `affordable` tiles held. False when the bytes cannot be found.
-fn make_room(
-    commands: &mut Commands,
-    s: &mut Streaming,
-    bytes: u64,
-    affordable: usize,
-    plan: &TilePlan,
-    budget: u64,
-) -> bool {
-    loop {
-        let resident: u64 = s.resident.values().map(|r| r.bytes).sum();
-        if resident + bytes <= budget {
-            return true;
-        }
-        match plan.victim(affordable, s.resident.iter().map(|(k, r)| (*k, r.last_used))) {
-            Some(k) => {
-                let gone = s.resident.remove(&k).expect("a resident tile");
-                commands.entity(gone.entity).despawn();
-            }
-            None => return false,
-        }
-    }
 }
 
 /// Adds tile `key` as a hidden child of `parent`: its mesh, its images and its material; and

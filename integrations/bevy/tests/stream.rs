@@ -279,3 +279,108 @@ fn tiles_stream_without_waiting_for_the_rest_of_the_bundle() {
     let said = app.world().get::<HikageError>(terrain).map(|e| e.0.clone()).unwrap_or_default();
     assert!(said.contains("whole.horizon"), "{said}");
 }
+
+/// A rebake under a running app (what Bevy's file watcher reports) is taken up tile by tile:
+/// the tiles whose files, or whose neighbours' heights, changed — found here from the two
+/// manifests — are read again and get new entities; the others keep theirs; every frame in
+/// between draws level 0 everywhere; and the frame after is a fresh stream's of the edited
+/// bundle.
+#[test]
+fn a_rebake_reloads_only_the_changed_tiles() {
+    if !gpu_or_skip("a_rebake_reloads_only_the_changed_tiles") {
+        return;
+    }
+    let (n, tile) = (256u32, 32u32);
+    let tmp = option_env!("CARGO_TARGET_TMPDIR").map_or_else(std::env::temp_dir, PathBuf::from);
+    std::fs::create_dir_all(&tmp).unwrap();
+    let dem = tmp.join("stream_reload_dem.r32");
+    let mut heights = hikage_devkit::synth::terrain(n);
+    std::fs::write(&dem, heights.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>()).unwrap();
+    let dir = common::bake(
+        "stream_reload",
+        &format!(
+            r#"Horizon(id: "dem", input: "{}", texel_size: ({TEXEL}, {TEXEL}), height_scale: 300, directions: 8,
+               edge: Clamp, max_distance: 300, tile: {tile}, levels: 16)"#,
+            dem.display()
+        ),
+    );
+    let half = n as f32 * TEXEL / 2.0;
+    let MaskScene { mut app, target, .. } = MaskScene::new(
+        &dir,
+        n,
+        low_sun(),
+        Transform::from_xyz(half, 2000.0, half).looking_at(Vec3::new(half, 0.0, half), Vec3::NEG_Z),
+        MaskScene::orthographic(2.0 * half, 2.0 * half, 4000.0),
+    );
+    let bundle: Handle<HikageBundle> = app.world().resource::<AssetServer>().load("bundle/bundle.ron");
+    let options =
+        StreamOptions { detail: 1e9, resident_bytes: 1 << 30, upload_bytes: 1 << 30, ..StreamOptions::default() };
+    let spawn = |app: &mut Headless| {
+        app.world().spawn((StreamedTerrain::new(bundle.clone(), "dem").with_options(options), NotShadowCaster)).id()
+    };
+    let grid = (n / tile) as usize;
+    let settled = |w: &mut World, terrain: Entity| {
+        let s = stats(w, terrain);
+        s.missing == 0 && s.finest_drawn == 0 && s.drawn == grid * grid
+    };
+    let tiles = |app: &mut Headless| -> std::collections::BTreeMap<(u32, u32, u32), Entity> {
+        let world = app.world();
+        world.query::<(Entity, &TerrainTile)>().iter(world).map(|(e, t)| (t.key, e)).collect()
+    };
+    let terrain = spawn(&mut app);
+    assert!(app.update_until(2000, |w| settled(w, terrain)), "{:?}", stats(app.world(), terrain));
+    let before_tiles = tiles(&mut app);
+    let index = |dir: &std::path::Path| hikage_runtime::hikage_bundle::tiles::TileIndex::open(dir).unwrap();
+    let before = index(&dir.join("bundle"));
+
+    // Raise a 12×12-texel square by 40 m and bake again in place.
+    for y in 100..112 {
+        for x in 40..52 {
+            heights[y * n as usize + x] += 40.0 / 300.0;
+        }
+    }
+    std::fs::write(&dem, heights.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>()).unwrap();
+    hikage_bake::build::BuildScript::new(dir.join("pipeline.ron")).into_pipeline_output().run().unwrap();
+    let after = index(&dir.join("bundle"));
+    let entry = |i: &hikage_runtime::hikage_bundle::tiles::TileIndex, part: &str, (l, x, y): (u32, u32, u32)| {
+        i.tile(&format!("dem.{part}"), l, (x, y)).map(|a| a.blake3)
+    };
+    let changed: std::collections::BTreeSet<(u32, u32, u32)> = before_tiles
+        .keys()
+        .copied()
+        .filter(|&(l, x, y)| {
+            let moved = |k| ["height", "horizon"].iter().any(|p| entry(&before, p, k) != entry(&after, p, k));
+            let side = |dx: i64, dy: i64| {
+                let k = (l, (x as i64 + dx) as u32, (y as i64 + dy) as u32);
+                entry(&before, "height", k) != entry(&after, "height", k)
+            };
+            moved((l, x, y)) || side(-1, 0) || side(1, 0) || side(0, -1) || side(0, 1)
+        })
+        .collect();
+    assert!(!changed.is_empty() && changed.len() < before_tiles.len() / 4, "{changed:?}");
+
+    app.world().resource::<AssetServer>().reload("bundle/bundle.ron");
+    // Until every changed tile has a new entity, and the stream holds all it wants.
+    let mut frames = 0;
+    loop {
+        app.update();
+        frames += 1;
+        let s = stats(app.world(), terrain);
+        assert!(s.drawn == grid * grid && s.finest_drawn == 0, "a frame without level 0 everywhere: {s:?}");
+        let now = tiles(&mut app);
+        let renewed = changed.iter().all(|k| now.get(k).is_some_and(|e| before_tiles[k] != *e));
+        if renewed && settled(app.world(), terrain) {
+            let kept = before_tiles.iter().filter(|(k, e)| now.get(k) == Some(e)).count();
+            eprintln!("rebake: {} tiles read again, {kept} kept, in {frames} frames", changed.len());
+            assert_eq!(kept + changed.len(), before_tiles.len(), "an unchanged tile was read again");
+            break;
+        }
+        assert!(frames < 2000, "the changed tiles were never read again");
+    }
+    let reloaded = app.capture_bytes_settled(&target);
+    app.world().despawn(terrain);
+    let fresh = spawn(&mut app);
+    assert!(app.update_until(2000, |w| settled(w, fresh)), "{:?}", stats(app.world(), fresh));
+    let again = app.capture_bytes_settled(&target);
+    assert!(reloaded == again, "the reloaded stream draws as a fresh one");
+}

@@ -20,6 +20,7 @@
 
 mod field_tiles;
 pub mod reference;
+mod residency;
 mod stream;
 pub(crate) mod sun_field;
 mod surface;
@@ -29,6 +30,7 @@ mod tile_plan;
 use hikage_bundle::{EdgeMode, HorizonSettings, TextureFormat};
 
 pub use field_tiles::{FieldMap, FieldTileTextures, SunFieldTiles};
+pub use residency::{ResidencyFrame, TileReads, TileResidency, TileStore};
 pub use stream::{MAX_TILE_SIDE, StreamOptions, StreamStats, TerrainStream};
 pub use sun_field::{
     FieldTerrain, MAX_SUN_FIELD_LEVELS, SUN_FIELD_UNIFORM_BYTES, SUN_FIELD_WGSL, SunField, SunFieldOptions,
@@ -38,7 +40,7 @@ pub use surface::{SurfaceFrame, SurfaceShadows, SurfaceUniform};
 pub use terrain::{Sun, TerrainExtent, TerrainFrame, TerrainShadows, TerrainUniform};
 pub use tile_plan::{
     BudgetShortfall, MAX_PENDING_TILES, TileKey, TileLayout, TileLevel, TileParts, TilePlan, apron_neighbours,
-    heights_with_apron, tile_device_bytes,
+    heights_with_apron, tile_device_bytes, tile_unchanged,
 };
 
 /// WGSL of the horizon functions (no bindings); include it in a shader module. The components

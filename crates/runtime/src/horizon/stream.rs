@@ -2,7 +2,7 @@
 //! and `levels`), drawn from the tiles near the camera and coarser ones farther out, loaded on
 //! a thread of its own and uploaded within a byte budget a frame.
 
-use std::collections::{HashMap, HashSet, VecDeque};
+use std::collections::HashSet;
 use std::path::Path;
 use std::sync::mpsc;
 
@@ -11,11 +11,12 @@ use hikage_bundle::tiles::TileIndex;
 use hikage_bundle::{Asset, PayloadData, TextureData};
 
 use super::horizon_filterable;
+use super::residency::{TileReads, TileResidency, TileStore};
 use super::sun_field::{FieldTerrain, FieldTile, SunFieldSource};
 use super::terrain::{TerrainBinding, TerrainExtent, TerrainFrame, terrain_layout, terrain_program};
 use super::tile_plan::{
-    BudgetShortfall, MAX_PENDING_TILES, TileKey, TileLayout, TileParts, TilePlan, apron_neighbours, heights_with_apron,
-    tile_device_bytes,
+    BudgetShortfall, TileKey, TileLayout, TileParts, apron_neighbours, heights_with_apron, tile_device_bytes,
+    tile_unchanged,
 };
 use crate::draw::DrawOptions;
 use crate::error::RuntimeError;
@@ -74,8 +75,16 @@ pub struct StreamStats {
     pub finest_drawn: u32,
 }
 
-/// What the loader thread sends back: a tile's payloads read and checked, or why not.
-type Loaded = (Key, Result<Vec<CpuAsset>, RuntimeError>);
+/// What the loader thread sends back: the index generation it read from, and a tile's payloads
+/// read and checked, or why not.
+type Loaded = (u64, Key, Result<Vec<CpuAsset>, RuntimeError>);
+
+/// What the loader thread is asked: a tile, or to read from a reloaded bundle's index from now
+/// on (its generation).
+enum Request {
+    Tile(Key),
+    Index(Box<TileIndex>, u64),
+}
 
 /// A tile's key.
 type Key = TileKey;
@@ -87,9 +96,70 @@ struct Resident {
     /// Holds the textures the bind group samples.
     _textures: GpuBundle,
     bytes: u64,
-    last_used: u64,
     /// Level-0 map frame → tile frame offset (world units along `u`, `v`).
     offset: (f32, f32),
+}
+
+/// The loader thread as the residency reads through it.
+#[derive(Debug)]
+struct ThreadReads {
+    requests: mpsc::Sender<Request>,
+    results: mpsc::Receiver<Loaded>,
+    pending: HashSet<Key>,
+    /// The index the loader reads from now (a reload's results before it are dropped).
+    generation: u64,
+}
+
+impl TileReads<Vec<CpuAsset>, RuntimeError> for ThreadReads {
+    fn finished(&mut self) -> Vec<(Key, Result<Vec<CpuAsset>, RuntimeError>)> {
+        let mut out = Vec::new();
+        while let Ok((generation, key, result)) = self.results.try_recv() {
+            if generation == self.generation {
+                self.pending.remove(&key);
+                out.push((key, result));
+            }
+        }
+        out
+    }
+
+    /// A read on the thread cannot be stopped: it finishes and is dropped if still unwanted.
+    fn retain(&mut self, _wanted: &dyn Fn(Key) -> bool) {}
+
+    fn reading(&self, key: Key) -> bool {
+        self.pending.contains(&key)
+    }
+
+    fn in_flight(&self) -> usize {
+        self.pending.len()
+    }
+
+    fn start(&mut self, key: Key) -> Result<(), RuntimeError> {
+        if self.requests.send(Request::Tile(key)).is_ok() {
+            self.pending.insert(key);
+        }
+        Ok(())
+    }
+}
+
+/// The device as the residency adds tiles to it.
+struct DeviceStore<'a> {
+    device: &'a wgpu::Device,
+    queue: &'a wgpu::Queue,
+    binder: &'a Binder,
+}
+
+impl TileStore<Resident, Vec<CpuAsset>, RuntimeError> for DeviceStore<'_> {
+    fn bytes(&self, assets: &Vec<CpuAsset>) -> u64 {
+        assets.iter().filter_map(|a| a.texture()).map(|t| t.desc.total_bytes().unwrap_or(0)).sum()
+    }
+
+    fn add(&mut self, key: Key, assets: Vec<CpuAsset>) -> Result<(Resident, u64), RuntimeError> {
+        let r = upload(self.device, self.queue, self.binder, key, &assets)?;
+        let bytes = r.bytes;
+        Ok((r, bytes))
+    }
+
+    fn evict(&mut self, _key: Key, _tile: Resident) {}
 }
 
 /// A terrain baked in tiles and levels of detail, streamed around a camera.
@@ -102,7 +172,7 @@ struct Resident {
 /// - **Uploads:** at most [`StreamOptions::upload_bytes`] of textures an update.
 /// - **Residency:** at most [`StreamOptions::resident_bytes`]. Tiles are wanted four at a time
 ///   (the four that replace a coarser tile), the sets nearest the camera in tile widths first
-///   ([`TilePlan`]); only whole sets the budget holds are read, so a budget too small for the
+///   ([`TilePlan`](super::TilePlan)); only whole sets the budget holds are read, so a budget too small for the
 ///   next level holds the finest it can (see [`budget_warning`](TerrainStream::budget_warning)).
 ///   To make room, tiles no longer wanted go first (least recently drawn first), then wanted
 ///   ones past the sets the budget holds; never one of those sets, never a tile that finer
@@ -143,13 +213,11 @@ pub struct TerrainStream {
     binder: Binder,
     /// What a tile of each level holds on the device (its tile `(0, 0)`, the largest).
     level_bytes: Vec<u64>,
-    resident: HashMap<Key, Resident>,
-    requests: mpsc::Sender<Key>,
-    results: mpsc::Receiver<Loaded>,
-    pending: HashSet<Key>,
-    ready: VecDeque<(Key, Vec<CpuAsset>)>,
+    residency: TileResidency<Resident, Vec<CpuAsset>>,
+    reads: ThreadReads,
+    /// The index the tiles are read from (a reload compares the rebaked one with it).
+    index: TileIndex,
     drawn: Vec<Key>,
-    frame: u64,
     extent: TerrainExtent,
     shortfall: Option<BudgetShortfall>,
     /// The bake's farthest horizon distance and azimuths (the coarsest level's, as every level's).
@@ -194,16 +262,22 @@ impl TerrainStream {
         let group_layout = terrain_layout(device, filterable);
 
         // The loader thread: a clone of the index, one tile's payloads per request.
-        let (requests, to_load) = mpsc::channel::<Key>();
+        let (requests, to_load) = mpsc::channel::<Request>();
         let (loaded, results) = mpsc::channel::<Loaded>();
-        let loader = index.clone();
+        let mut loader = index.clone();
         let loader_parts = layout.parts.clone();
         std::thread::Builder::new()
             .name(format!("hikage terrain {map}"))
             .spawn(move || {
-                while let Ok(key) = to_load.recv() {
-                    if loaded.send((key, load_tile(&loader, &loader_parts, key))).is_err() {
-                        break;
+                let mut generation = 0;
+                while let Ok(request) = to_load.recv() {
+                    match request {
+                        Request::Index(index, g) => (loader, generation) = (*index, g),
+                        Request::Tile(key) => {
+                            if loaded.send((generation, key, load_tile(&loader, &loader_parts, key))).is_err() {
+                                break;
+                            }
+                        }
                     }
                 }
             })
@@ -237,8 +311,9 @@ impl TerrainStream {
         }
         let shortfall = binder.tiles.budget_shortfall(&options, |k| level_bytes[k.0 as usize]);
         // The coarsest level, now: there is always terrain to draw.
-        let mut resident = HashMap::new();
+        let mut residency = TileResidency::default();
         let mut program = None;
+        let (mut heights, mut root) = ((f32::MAX, f32::MIN), None);
         for &key in &roots {
             let assets = load_tile(&index, &binder.tiles.parts, key)?;
             let r = upload(device, queue, &binder, key, &assets)?;
@@ -246,27 +321,24 @@ impl TerrainStream {
                 let group = (binder.layout.clone(), r.binding.bind_group.clone());
                 program = Some(terrain_program(device, map, group, draw)?);
             }
-            resident.insert(key, r);
+            let range = r.binding.extent.height_range;
+            heights = (heights.0.min(range.0), heights.1.max(range.1));
+            root = root.or(Some((r.binding.reach, r.binding.directions)));
+            let bytes = r.bytes;
+            residency.insert(key, r, bytes);
         }
-        let heights = resident.values().fold((f32::MAX, f32::MIN), |(lo, hi), r| {
-            (lo.min(r.binding.extent.height_range.0), hi.max(r.binding.extent.height_range.1))
-        });
         let level0 = &binder.tiles.levels[0];
         let extent = TerrainExtent::new(level0.size, level0.texel, heights);
-        let root = &resident.values().next().expect("at least one coarsest tile").binding;
-        let (reach, directions) = (root.reach, root.directions);
+        let (reach, directions) = root.expect("at least one coarsest tile");
         Ok(TerrainStream {
             program: program.expect("at least one coarsest tile"),
             options,
             binder,
             level_bytes,
-            resident,
-            requests,
-            results,
-            pending: HashSet::new(),
-            ready: VecDeque::new(),
+            residency,
+            reads: ThreadReads { requests, results, pending: HashSet::new(), generation: 0 },
+            index,
             drawn: Vec::new(),
-            frame: 0,
             extent,
             shortfall,
             reach,
@@ -308,82 +380,71 @@ impl TerrainStream {
         frame: &TerrainFrame,
         eye: Vec3,
     ) -> Result<StreamStats, RuntimeError> {
-        self.frame += 1;
         let cam = frame.model.inverse().transform_point3(eye);
-        // 1. What to draw, and what is wanted (in the order it is wanted).
-        let plan = self.binder.tiles.plan((cam.x, cam.z), &self.options, |k| self.resident.contains_key(&k));
-        // 2. What the loader finished.
-        let mut failure = None;
-        while let Ok((key, result)) = self.results.try_recv() {
-            self.pending.remove(&key);
-            match result {
-                Ok(assets) => self.ready.push_back((key, assets)),
-                Err(e) => failure = failure.or(Some(e)),
-            }
-        }
-        self.ready.retain(|(key, _)| plan.rank(*key).is_some() && !self.resident.contains_key(key));
-        self.ready.make_contiguous().sort_by_key(|(key, _)| plan.rank(*key));
-        // 3. Requests, coarser and nearer first (the order of `wanted`), of what the budget holds.
-        let level_bytes = &self.level_bytes;
-        let affordable = plan.affordable(self.options.resident_bytes, |k| level_bytes[k.0 as usize]);
-        for &key in affordable {
-            if self.pending.len() >= MAX_PENDING_TILES {
-                break;
-            }
-            let queued = self.pending.contains(&key) || self.ready.iter().any(|(k, _)| *k == key);
-            if !self.resident.contains_key(&key) && !queued && self.requests.send(key).is_ok() {
-                self.pending.insert(key);
-            }
-        }
-        // 4. Uploads within the frame's budget, making room by evicting.
-        let mut uploaded = 0u64;
-        while let Some((key, assets)) = self.ready.pop_front() {
-            let bytes: u64 = assets.iter().filter_map(|a| a.texture()).map(|t| t.desc.total_bytes().unwrap_or(0)).sum();
-            let fits = uploaded + bytes <= self.options.upload_bytes;
-            if !fits || !self.make_room(bytes, affordable.len(), &plan) {
-                self.ready.push_front((key, assets));
-                break;
-            }
-            match upload(device, queue, &self.binder, key, &assets) {
-                Ok(mut r) => {
-                    r.last_used = self.frame;
-                    uploaded += r.bytes;
-                    self.resident.insert(key, r);
-                }
-                Err(e) => failure = failure.or(Some(e)),
-            }
-        }
-        // 5. What to draw now that tiles came and went (an evicted tile's area falls back to its
-        // coarser tile, which stays while finer tiles hang from it), and its uniforms.
-        let plan = self.binder.tiles.plan((cam.x, cam.z), &self.options, |k| self.resident.contains_key(&k));
-        let missing = plan.wanted.iter().filter(|k| !self.resident.contains_key(k)).count();
-        for key in &plan.drawn {
-            let r = self.resident.get_mut(key).expect("drawn tiles are resident");
-            r.last_used = self.frame;
+        let mut store = DeviceStore { device, queue, binder: &self.binder };
+        let done = self.residency.frame(
+            (&self.binder.tiles, &self.options, &self.level_bytes),
+            (cam.x, cam.z),
+            &mut self.reads,
+            &mut store,
+        );
+        // The drawn tiles' uniforms.
+        for key in &done.drawn {
+            let r = self.residency.get(*key).expect("drawn tiles are resident");
             let model = frame.model * Mat4::from_translation(Vec3::new(r.offset.0, 0.0, r.offset.1));
             let uniform = r.binding.uniform(&TerrainFrame { model, ..*frame });
             queue.write_buffer(&r.binding.uniform, 0, bytemuck::bytes_of(&uniform));
         }
-        let stats = StreamStats {
-            resident_tiles: self.resident.len(),
-            resident_bytes: self.resident.values().map(|r| r.bytes).sum(),
-            uploaded_bytes: uploaded,
-            drawn: plan.drawn.len(),
-            missing,
-            finest_drawn: plan.drawn.iter().map(|k| k.0).min().unwrap_or(self.binder.tiles.coarsest()),
-        };
-        self.drawn = plan.drawn;
-        match failure {
+        self.drawn = done.drawn;
+        match done.failure {
             Some(e) => Err(e),
-            None => Ok(stats),
+            None => Ok(done.stats),
         }
+    }
+
+    /// Takes up a rebake of the bundle in `dir` (the one the stream was opened from): the
+    /// resident tiles whose payloads, and whose neighbours' heights, are as they were stay; the
+    /// others are read again and drawn as they were until their new versions are uploaded, so
+    /// no frame lacks terrain. Returns (tiles kept, tiles to read again). A rebake that changed
+    /// the map's tiling (tile size, levels, parts) is refused: open the stream again.
+    ///
+    /// ```no_run
+    /// # fn f(stream: &mut hikage_runtime::horizon::TerrainStream) -> Result<(), hikage_runtime::RuntimeError> {
+    /// // When the bundle's files changed (a file watcher, an editor's "bake" button):
+    /// let (kept, again) = stream.reload("bundle".as_ref())?;
+    /// eprintln!("terrain: {kept} tiles kept, {again} read again");
+    /// # Ok(()) }
+    /// ```
+    pub fn reload(&mut self, dir: &Path) -> Result<(usize, usize), RuntimeError> {
+        let index = TileIndex::open(dir)?;
+        let map = self.binder.tiles.map.clone();
+        let layout = TileLayout::new(&map, |part, level, at| index.tile(part, level, at))?;
+        if layout != self.binder.tiles {
+            return Err(RuntimeError::Asset {
+                asset: map,
+                message: "the rebake changed the map's tiling (tile size, levels or parts): open the stream again"
+                    .into(),
+            });
+        }
+        let parts = &self.binder.tiles.parts;
+        let unchanged = |key: Key| {
+            tile_unchanged(parts, key, |part, k| {
+                (self.index.tile(part, k.0, (k.1, k.2)), index.tile(part, k.0, (k.1, k.2)))
+            })
+        };
+        let counts = self.residency.reload(unchanged);
+        self.reads.generation += 1;
+        self.reads.pending.clear();
+        let _ = self.reads.requests.send(Request::Index(Box::new(index.clone()), self.reads.generation));
+        self.index = index;
+        Ok(counts)
     }
 
     /// Draws the tiles the last [`update`](TerrainStream::update) chose into `pass`, whose
     /// attachments must match the options the stream was opened with.
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>) {
         self.program.bind(pass);
-        for r in self.drawn.iter().filter_map(|key| self.resident.get(key)) {
+        for r in self.drawn.iter().filter_map(|key| self.residency.get(*key)) {
             pass.set_bind_group(self.program.group, &r.binding.bind_group, &[]);
             pass.draw(0..r.binding.vertices, 0..1);
         }
@@ -399,23 +460,6 @@ impl TerrainStream {
     pub fn wgsl(&self) -> &str {
         &self.program.wgsl
     }
-
-    /// Evicts tiles until `bytes` more fit the resident budget, in the order [`TilePlan::victim`]
-    /// gives with the plan's first `affordable` tiles held. False when the bytes cannot be found.
-    fn make_room(&mut self, bytes: u64, affordable: usize, plan: &TilePlan) -> bool {
-        loop {
-            let resident: u64 = self.resident.values().map(|r| r.bytes).sum();
-            if resident + bytes <= self.options.resident_bytes {
-                return true;
-            }
-            match plan.victim(affordable, self.resident.iter().map(|(k, r)| (*k, r.last_used))) {
-                Some(k) => {
-                    self.resident.remove(&k);
-                }
-                None => return false,
-            }
-        }
-    }
 }
 
 impl SunFieldSource for TerrainStream {
@@ -426,7 +470,7 @@ impl SunFieldSource for TerrainStream {
             .drawn
             .iter()
             .filter_map(|&key| {
-                let r = self.resident.get(&key)?;
+                let r = self.residency.get(key)?;
                 let grid = tiles.levels[key.0 as usize].grid;
                 let statics = &r.binding.statics;
                 let edges = u32::from(key.1 == 0)
@@ -519,5 +563,5 @@ fn upload(
     let binding = TerrainBinding::new(device, queue, &textures, (&id(horizon), ao_id.as_deref()), (skirt, 1), layout)?;
     let bytes = textures.textures.values().map(|t| t.desc.total_bytes().unwrap_or(0)).sum();
     let offset = binder.tiles.offset(key);
-    Ok(Resident { binding, _textures: textures, bytes, last_used: 0, offset })
+    Ok(Resident { binding, _textures: textures, bytes, offset })
 }

@@ -529,6 +529,32 @@ pub fn tile_device_bytes(entries: &[Asset]) -> u64 {
         .sum()
 }
 
+/// Whether tile `key` reads the same files after a rebake, so an engine may keep it: each
+/// part's entry and its neighbours' heights (its apron), as `entries(part, key)` gives them
+/// (before, after), alike in file and BLAKE3.
+///
+/// ```no_run
+/// # fn f(layout: &hikage_runtime::horizon::TileLayout, before: &hikage_runtime::hikage_bundle::tiles::TileIndex,
+/// #      after: &hikage_runtime::hikage_bundle::tiles::TileIndex) {
+/// use hikage_runtime::horizon::tile_unchanged;
+///
+/// let keep = tile_unchanged(&layout.parts, (0, 3, 5), |part, (level, x, y)| {
+///     (before.tile(part, level, (x, y)), after.tile(part, level, (x, y)))
+/// });
+/// # }
+/// ```
+pub fn tile_unchanged(
+    parts: &TileParts,
+    key: TileKey,
+    entries: impl Fn(&str, TileKey) -> (Option<Asset>, Option<Asset>),
+) -> bool {
+    let same = |part: &str, k: TileKey| {
+        let (a, b) = entries(part, k);
+        a.map(|a| (a.file, a.blake3)) == b.map(|b| (b.file, b.blake3))
+    };
+    parts.all().all(|p| same(p, key)) && apron_neighbours(key).into_iter().flatten().all(|n| same(&parts.height, n))
+}
+
 /// The keys of the tiles beside `key` whose heights [`heights_with_apron`] takes:
 /// `[left, right, above, below]`, `None` past the map's first row or column.
 pub fn apron_neighbours((level, x, y): TileKey) -> [Option<TileKey>; 4] {

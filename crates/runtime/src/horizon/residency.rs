@@ -1,0 +1,264 @@
+//! [`TileResidency`]: the tiles of a streamed map an engine holds, and the one frame loop both
+//! streams run ([`super::TerrainStream`] here, hikage-bevy's `StreamedTerrain`): what to read,
+//! what to add within the frame's upload budget (making room by evicting), what to draw, and
+//! what a reload of a rebaked bundle keeps.
+
+use std::collections::HashMap;
+
+use super::stream::{StreamOptions, StreamStats};
+use super::tile_plan::{MAX_PENDING_TILES, TileKey, TileLayout};
+
+/// How an engine reads its tiles (a thread, a task pool): a [`TileResidency`] asks for tiles and
+/// takes them as they finish.
+pub trait TileReads<L, E> {
+    /// The reads that finished since the last call, each a tile read or why not.
+    fn finished(&mut self) -> Vec<(TileKey, Result<L, E>)>;
+    /// Drops the reads of tiles `wanted` says no (where the engine can stop a read).
+    fn retain(&mut self, wanted: &dyn Fn(TileKey) -> bool);
+    /// Whether `key` is being read.
+    fn reading(&self, key: TileKey) -> bool;
+    /// Reads in flight.
+    fn in_flight(&self) -> usize;
+    /// Starts reading `key`; or why it cannot.
+    fn start(&mut self, key: TileKey) -> Result<(), E>;
+}
+
+/// What an engine does with a tile read ([`TileResidency::frame`]): adds it (its device
+/// objects, entities) and says what it holds, or drops one it holds.
+pub trait TileStore<T, L, E> {
+    /// Bytes `loaded` will hold once added (the frame's upload budget counts them).
+    fn bytes(&self, loaded: &L) -> u64;
+    /// Adds tile `key`: what the engine keeps of it, and the bytes it holds.
+    fn add(&mut self, key: TileKey, loaded: L) -> Result<(T, u64), E>;
+    /// Drops a tile it holds.
+    fn evict(&mut self, key: TileKey, tile: T);
+}
+
+/// A tile held: what the engine keeps, its bytes, when it was last drawn, and whether a reload
+/// found it changed (drawn until its new version is added).
+#[derive(Debug)]
+struct Held<T> {
+    tile: T,
+    bytes: u64,
+    last_used: u64,
+    stale: bool,
+}
+
+/// The tiles of one streamed map an engine holds, and those read and waiting to be added.
+///
+/// Each frame, [`frame`](TileResidency::frame) plans the tiles for the camera
+/// ([`TileLayout::plan`]), takes the finished reads, starts the reads the resident budget
+/// holds (at most [`MAX_PENDING_TILES`] in flight, the most wanted first), adds what the
+/// upload budget allows (evicting as [`super::TilePlan::victim`] says) and returns what to draw.
+/// [`reload`](TileResidency::reload) keeps the tiles a rebake left as they were and reads the
+/// others again, drawing the old ones until their new versions are added: no frame without
+/// terrain.
+///
+/// An engine brings how it reads tiles ([`TileReads`]) and what it makes of them
+/// ([`TileStore`]):
+///
+/// ```no_run
+/// use hikage_runtime::horizon::{StreamOptions, TileKey, TileLayout, TileReads, TileResidency, TileStore};
+///
+/// /// Tiles read at once, from memory; each held as its byte count.
+/// struct Instant(Vec<(TileKey, Result<u64, String>)>);
+/// impl TileReads<u64, String> for Instant {
+///     fn finished(&mut self) -> Vec<(TileKey, Result<u64, String>)> { std::mem::take(&mut self.0) }
+///     fn retain(&mut self, _wanted: &dyn Fn(TileKey) -> bool) {}
+///     fn reading(&self, _key: TileKey) -> bool { false }
+///     fn in_flight(&self) -> usize { 0 }
+///     fn start(&mut self, key: TileKey) -> Result<(), String> { self.0.push((key, Ok(1 << 20))); Ok(()) }
+/// }
+/// struct Counted;
+/// impl TileStore<u64, u64, String> for Counted {
+///     fn bytes(&self, loaded: &u64) -> u64 { *loaded }
+///     fn add(&mut self, _key: TileKey, loaded: u64) -> Result<(u64, u64), String> { Ok((loaded, loaded)) }
+///     fn evict(&mut self, _key: TileKey, _tile: u64) {}
+/// }
+///
+/// # fn f(layout: &TileLayout, level_bytes: &[u64]) {
+/// let mut residency = TileResidency::default();
+/// let options = StreamOptions::default();
+/// // Every frame, for the camera's place in the map frame:
+/// let done = residency.frame((layout, &options, level_bytes), (1000.0, 2000.0), &mut Instant(Vec::new()), &mut Counted);
+/// for key in &done.drawn {
+///     let _tile = residency.get(*key); // draw it
+/// }
+/// # }
+/// ```
+#[derive(Debug)]
+pub struct TileResidency<T, L> {
+    resident: HashMap<TileKey, Held<T>>,
+    ready: Vec<(TileKey, L)>,
+    frame: u64,
+}
+
+impl<T, L> Default for TileResidency<T, L> {
+    fn default() -> Self {
+        TileResidency { resident: HashMap::new(), ready: Vec::new(), frame: 0 }
+    }
+}
+
+/// What one [`TileResidency::frame`] did: the stats, the tiles to draw (resident, covering the
+/// map once) and the first failure (a tile that failed to read or add), if any.
+#[derive(Debug)]
+pub struct ResidencyFrame<E> {
+    /// What is held and what the frame did.
+    pub stats: StreamStats,
+    /// The tiles to draw.
+    pub drawn: Vec<TileKey>,
+    /// The first tile that failed to read or add.
+    pub failure: Option<E>,
+}
+
+impl<T, L> TileResidency<T, L> {
+    /// Holds `tile` (of `bytes`) at `key` from the start: the coarsest level, read before the
+    /// first frame so that there is always terrain.
+    pub fn insert(&mut self, key: TileKey, tile: T, bytes: u64) {
+        self.resident.insert(key, Held { tile, bytes, last_used: self.frame, stale: false });
+    }
+
+    /// The tile held at `key`.
+    pub fn get(&self, key: TileKey) -> Option<&T> {
+        self.resident.get(&key).map(|h| &h.tile)
+    }
+
+    /// Every tile held.
+    pub fn iter(&self) -> impl Iterator<Item = (TileKey, &T)> {
+        self.resident.iter().map(|(k, h)| (*k, &h.tile))
+    }
+
+    /// Every tile held, to change.
+    pub fn iter_mut(&mut self) -> impl Iterator<Item = (TileKey, &mut T)> {
+        self.resident.iter_mut().map(|(k, h)| (*k, &mut h.tile))
+    }
+
+    /// Drops every tile (each through `evict`) and every read waiting.
+    pub fn clear(&mut self, mut evict: impl FnMut(TileKey, T)) {
+        for (k, h) in self.resident.drain() {
+            evict(k, h.tile);
+        }
+        self.ready.clear();
+    }
+
+    /// After a rebake: the tiles `unchanged` says are as they were stay; the others are read
+    /// again and drawn until their new versions are added. Reads waiting to be added are
+    /// dropped (they may be of the old files). Returns (tiles kept, tiles to read again).
+    pub fn reload(&mut self, unchanged: impl Fn(TileKey) -> bool) -> (usize, usize) {
+        self.ready.clear();
+        let mut counts = (0, 0);
+        for (k, h) in self.resident.iter_mut() {
+            h.stale = h.stale || !unchanged(*k);
+            if h.stale {
+                counts.1 += 1;
+            } else {
+                counts.0 += 1;
+            }
+        }
+        counts
+    }
+
+    /// One frame for a camera at `cam` (the map frame's `u`, `v`): see [`TileResidency`].
+    pub fn frame<E>(
+        &mut self,
+        (layout, options, level_bytes): (&TileLayout, &StreamOptions, &[u64]),
+        cam: (f32, f32),
+        reads: &mut dyn TileReads<L, E>,
+        store: &mut dyn TileStore<T, L, E>,
+    ) -> ResidencyFrame<E> {
+        self.frame += 1;
+        let plan = layout.plan(cam, options, |k| self.resident.contains_key(&k));
+        // What is wanted and not held, or held from before a rebake.
+        let wants = |resident: &HashMap<TileKey, Held<T>>, k: TileKey| resident.get(&k).is_none_or(|h| h.stale);
+        let mut failure = None;
+        for (key, result) in reads.finished() {
+            match result {
+                Ok(loaded) => self.ready.push((key, loaded)),
+                Err(e) => failure = failure.or(Some(e)),
+            }
+        }
+        reads.retain(&|k| plan.rank(k).is_some());
+        let resident = &self.resident;
+        self.ready.retain(|(key, _)| plan.rank(*key).is_some() && wants(resident, *key));
+        // Most wanted last, to pop.
+        self.ready.sort_by_key(|(key, _)| std::cmp::Reverse(plan.rank(*key)));
+        let affordable = plan.affordable(options.resident_bytes, |k| level_bytes[k.0 as usize]);
+        for &key in affordable {
+            if reads.in_flight() >= MAX_PENDING_TILES {
+                break;
+            }
+            let queued = reads.reading(key) || self.ready.iter().any(|(k, _)| *k == key);
+            if wants(&self.resident, key)
+                && !queued
+                && let Err(e) = reads.start(key)
+            {
+                failure = failure.or(Some(e));
+            }
+        }
+        let mut uploaded = 0u64;
+        while let Some((key, loaded)) = self.ready.pop() {
+            let bytes = store.bytes(&loaded);
+            if uploaded + bytes > options.upload_bytes {
+                self.ready.push((key, loaded));
+                break;
+            }
+            // A tile's old version makes room for its new one.
+            if let Some(old) = self.resident.remove(&key) {
+                store.evict(key, old.tile);
+            }
+            if !self.make_room(bytes, affordable.len(), &plan, options.resident_bytes, store) {
+                self.ready.push((key, loaded));
+                break;
+            }
+            match store.add(key, loaded) {
+                Ok((tile, bytes)) => {
+                    uploaded += bytes;
+                    self.resident.insert(key, Held { tile, bytes, last_used: self.frame, stale: false });
+                }
+                Err(e) => failure = failure.or(Some(e)),
+            }
+        }
+        // What to draw now that tiles came and went (an evicted tile's area falls back to its
+        // coarser tile, which stays while finer tiles hang from it).
+        let plan = layout.plan(cam, options, |k| self.resident.contains_key(&k));
+        for key in &plan.drawn {
+            if let Some(h) = self.resident.get_mut(key) {
+                h.last_used = self.frame;
+            }
+        }
+        let stats = StreamStats {
+            resident_tiles: self.resident.len(),
+            resident_bytes: self.resident.values().map(|h| h.bytes).sum(),
+            uploaded_bytes: uploaded,
+            drawn: plan.drawn.len(),
+            missing: plan.wanted.iter().filter(|k| wants(&self.resident, **k)).count(),
+            finest_drawn: plan.drawn.iter().map(|k| k.0).min().unwrap_or(layout.coarsest()),
+        };
+        ResidencyFrame { stats, drawn: plan.drawn, failure }
+    }
+
+    /// Evicts tiles until `bytes` more fit `budget`, in the order [`super::TilePlan::victim`]
+    /// gives with the plan's first `affordable` tiles held. False when the bytes cannot be found.
+    fn make_room<E>(
+        &mut self,
+        bytes: u64,
+        affordable: usize,
+        plan: &super::TilePlan,
+        budget: u64,
+        store: &mut dyn TileStore<T, L, E>,
+    ) -> bool {
+        loop {
+            let resident: u64 = self.resident.values().map(|h| h.bytes).sum();
+            if resident + bytes <= budget {
+                return true;
+            }
+            match plan.victim(affordable, self.resident.iter().map(|(k, h)| (*k, h.last_used))) {
+                Some(k) => {
+                    let gone = self.resident.remove(&k).expect("a resident tile");
+                    store.evict(k, gone.tile);
+                }
+                None => return false,
+            }
+        }
+    }
+}
