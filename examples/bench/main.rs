@@ -15,6 +15,7 @@
 
 mod bc;
 mod build_script;
+mod edit;
 mod field;
 mod fit;
 mod fourier;
@@ -72,9 +73,9 @@ pub fn reset_peak_rss() -> bool {
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if let [flag, pipeline] = args.as_slice()
-        && flag == "--bake-child"
+        && (flag == "--bake-child" || flag == "--rebake-child")
     {
-        scale::bake_child(std::path::Path::new(pipeline));
+        scale::bake_child(std::path::Path::new(pipeline), flag == "--rebake-child");
         return;
     }
     if let [flag, input, out, zstd] = args.as_slice()
@@ -142,6 +143,9 @@ fn main() {
     }
     if args.iter().any(|a| a == "pyramid-scale") {
         scale::run_pyramid();
+    }
+    if let Some(at) = args.iter().position(|a| a == "edit") {
+        edit::run(args.get(at + 1).and_then(|n| n.parse().ok()).unwrap_or(4096));
     }
     if args.iter().any(|a| a == "build-script") {
         build_script::run();

@@ -83,7 +83,7 @@ pub fn run() {
 
 /// Writes an `n`² DEM: the devkit's rough terrain at texels of `3.75 · 8192 / n` m and 1500 m of
 /// relief. Returns `max_distance` (64 texels) and the halo a tile reads.
-fn write_dem(scratch: &Path, n: u32) -> (f32, u32) {
+pub(crate) fn write_dem(scratch: &Path, n: u32) -> (f32, u32) {
     let samples = synth::terrain(n);
     let bytes: Vec<u8> = samples.iter().flat_map(|v| (v * 1500.0).to_le_bytes()).collect();
     drop(samples);
@@ -93,7 +93,7 @@ fn write_dem(scratch: &Path, n: u32) -> (f32, u32) {
     (md, (md / texel).ceil() as u32 + 3)
 }
 
-fn texel(n: u32) -> f32 {
+pub(crate) fn texel(n: u32) -> f32 {
     3.75 * 8192.0 / n as f32
 }
 
@@ -176,7 +176,7 @@ fn bake_whole(scratch: &Path, n: u32, md: f32) -> Measured {
 
 /// Runs this bench's executable with `args` under `/usr/bin/time`: wall seconds and peak RSS
 /// in MiB.
-fn timed(args: &[&std::ffi::OsStr]) -> (f64, f64) {
+pub(crate) fn timed(args: &[&std::ffi::OsStr]) -> (f64, f64) {
     let exe = std::env::current_exe().expect("the bench's own path");
     let out = Command::new("/usr/bin/time")
         .args(["-f", "%e %M"])
@@ -192,9 +192,10 @@ fn timed(args: &[&std::ffi::OsStr]) -> (f64, f64) {
     (seconds, kib / 1024.0)
 }
 
-/// A child process: bakes the pipeline at `path`, everything forced.
-pub fn bake_child(path: &Path) {
-    let options = hikage_bake::RunOptions { force: true, ..Default::default() };
+/// A child process: bakes the pipeline at `path`, everything forced (or, `again`, only what
+/// changed).
+pub fn bake_child(path: &Path, again: bool) {
+    let options = hikage_bake::RunOptions { force: !again, ..Default::default() };
     hikage_bake::run_pipeline(path, &options).expect("the pipeline bakes");
 }
 

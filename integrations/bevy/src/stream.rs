@@ -22,8 +22,8 @@ use bevy_tasks::{AsyncComputeTaskPool, Task};
 use bevy_transform::components::{GlobalTransform, Transform};
 use hikage_bundle::{Asset as Entry, Limits, Manifest, TextureData};
 use hikage_runtime::horizon::{
-    BudgetShortfall, HorizonEncoding, MAX_TILE_SIDE, StreamOptions, StreamStats, TileKey, TileLayout, TileReads,
-    TileResidency, TileStore, apron_neighbours, heights_with_apron, tile_unchanged,
+    BudgetShortfall, HorizonEncoding, StreamOptions, StreamStats, TileKey, TileLayout, TileReads, TileResidency,
+    TileStore, apron_neighbours, check_budgets, heights_with_apron, tile_unchanged,
 };
 
 use hikage_runtime::glam::Vec2;
@@ -469,32 +469,12 @@ fn start(
         // The mesh, and the heights the sun field reads (with their apron, 32-bit floats).
         total + heights.map_or(0, |t| mesh_bytes(t.width, t.height) + 4 * u64::from((t.width + 2) * (t.height + 2)))
     };
-    let first = entry(&layout.parts.horizon, (0, 0, 0)).and_then(|e| e.payload.texture().cloned());
-    if let Some(t) = first.filter(|t| t.width.max(t.height) > MAX_TILE_SIDE) {
-        return Err(format!(
-            "map `{}`: tiles of {}×{} texels, above the {MAX_TILE_SIDE} a side every backend holds (bake with tile ≤ {})",
-            terrain.map,
-            t.width,
-            t.height,
-            MAX_TILE_SIDE - 1
-        ));
-    }
-    let level_bytes: Vec<u64> = (0..layout.levels.len() as u32).map(|k| bytes((k, 0, 0))).collect();
-    let (roots, largest) = (layout.roots().map(bytes).sum::<u64>(), level_bytes[0]);
+    let side = |level: u32| {
+        let first = entry(&layout.parts.horizon, (level, 0, 0));
+        first.and_then(|e| e.payload.texture().map(|t| (t.width, t.height))).unwrap_or((0, 0))
+    };
     let options = &terrain.options;
-    if roots + largest > options.resident_bytes {
-        return Err(format!(
-            "map `{}`: the coarsest level's tiles hold {roots} bytes and a level-0 tile {largest}, above the resident \
-             budget of {} (bake levels of detail, `levels: Some(16)`, or raise `resident_bytes`)",
-            terrain.map, options.resident_bytes
-        ));
-    }
-    if largest > options.upload_bytes {
-        return Err(format!(
-            "map `{}`: a level-0 tile holds {largest} bytes, above the upload budget of {} a frame",
-            terrain.map, options.upload_bytes
-        ));
-    }
+    let level_bytes = check_budgets(&layout, options, side, bytes).map_err(|e| format!("map `{}`: {e}", terrain.map))?;
     let shortfall = layout.budget_shortfall(options, |k| level_bytes[k.0 as usize]);
     let path = server.get_path(terrain.bundle.id()).ok_or("the bundle has no asset path")?;
     static STREAMS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);

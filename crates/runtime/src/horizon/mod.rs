@@ -30,7 +30,7 @@ mod tile_plan;
 use hikage_bundle::{EdgeMode, HorizonSettings, TextureFormat};
 
 pub use field_tiles::{FieldMap, FieldTileTextures, SunFieldTiles};
-pub use residency::{ResidencyFrame, TileReads, TileResidency, TileStore};
+pub use residency::{ResidencyFrame, TileReads, TileResidency, TileStore, check_budgets};
 pub use stream::{MAX_TILE_SIDE, StreamOptions, StreamStats, TerrainStream};
 pub use sun_field::{
     FieldTerrain, MAX_SUN_FIELD_LEVELS, SUN_FIELD_UNIFORM_BYTES, SUN_FIELD_WGSL, SunField, SunFieldOptions,

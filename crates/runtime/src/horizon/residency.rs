@@ -5,8 +5,59 @@
 
 use std::collections::HashMap;
 
-use super::stream::{StreamOptions, StreamStats};
+use super::stream::{MAX_TILE_SIDE, StreamOptions, StreamStats};
 use super::tile_plan::{MAX_PENDING_TILES, TileKey, TileLayout};
+
+/// What opening a stream checks before any tile is read, whatever holds the tiles: every
+/// level's tiles at most [`MAX_TILE_SIDE`] a side (`side(level)`: its tile `(0, 0)`, the
+/// largest), the coarsest level's tiles and one level-0 tile within the resident budget, one
+/// level-0 tile within the upload budget (`bytes(key)`: what a tile holds). Returns what a tile
+/// of each level holds (its tile `(0, 0)`); or why the stream cannot be, for the engine to say
+/// with the map's name.
+///
+/// ```no_run
+/// # fn f(layout: &hikage_runtime::horizon::TileLayout) -> Result<(), String> {
+/// use hikage_runtime::horizon::{StreamOptions, check_budgets};
+///
+/// let level_bytes = check_budgets(layout, &StreamOptions::default(), |_level| (257, 257), |_key| 4 << 20)?;
+/// # Ok(()) }
+/// ```
+pub fn check_budgets(
+    layout: &TileLayout,
+    options: &StreamOptions,
+    side: impl Fn(u32) -> (u32, u32),
+    bytes: impl Fn(TileKey) -> u64,
+) -> Result<Vec<u64>, String> {
+    for level in 0..layout.levels.len() as u32 {
+        let (w, h) = side(level);
+        if w.max(h) > MAX_TILE_SIDE {
+            return Err(format!(
+                "tiles of {w}×{h} texels: a streamed terrain holds tiles of at most {MAX_TILE_SIDE} a side (bake with \
+                 tile ≤ {})",
+                MAX_TILE_SIDE - 1
+            ));
+        }
+    }
+    let level_bytes: Vec<u64> = (0..layout.levels.len() as u32).map(|k| bytes((k, 0, 0))).collect();
+    let roots: Vec<TileKey> = layout.roots().collect();
+    let root_bytes: u64 = roots.iter().map(|&k| bytes(k)).sum();
+    let largest = level_bytes[0];
+    if root_bytes + largest > options.resident_bytes {
+        return Err(format!(
+            "the coarsest level's {} tiles hold {root_bytes} bytes and a level-0 tile {largest}: above the resident \
+             budget of {} (bake levels of detail, `levels: Some(16)`, or raise `resident_bytes`)",
+            roots.len(),
+            options.resident_bytes
+        ));
+    }
+    if largest > options.upload_bytes {
+        return Err(format!(
+            "a level-0 tile holds {largest} bytes, above the upload budget of {} a frame (raise `upload_bytes`)",
+            options.upload_bytes
+        ));
+    }
+    Ok(level_bytes)
+}
 
 /// How an engine reads its tiles (a thread, a task pool): a [`TileResidency`] asks for tiles and
 /// takes them as they finish.
@@ -260,5 +311,131 @@ impl<T, L> TileResidency<T, L> {
                 None => return false,
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::horizon::tile_plan::tests::square;
+
+    /// Reads that finish in the frame after they start, unless `slow`; every one counted.
+    #[derive(Default)]
+    struct Reads {
+        started: Vec<TileKey>,
+        flying: Vec<TileKey>,
+        slow: bool,
+    }
+
+    impl TileReads<u64, String> for Reads {
+        fn finished(&mut self) -> Vec<(TileKey, Result<u64, String>)> {
+            if self.slow {
+                return Vec::new();
+            }
+            std::mem::take(&mut self.flying).into_iter().map(|k| (k, Ok(100))).collect()
+        }
+        fn retain(&mut self, wanted: &dyn Fn(TileKey) -> bool) {
+            self.flying.retain(|k| wanted(*k));
+        }
+        fn reading(&self, key: TileKey) -> bool {
+            self.flying.contains(&key)
+        }
+        fn in_flight(&self) -> usize {
+            self.flying.len()
+        }
+        fn start(&mut self, key: TileKey) -> Result<(), String> {
+            self.started.push(key);
+            self.flying.push(key);
+            Ok(())
+        }
+    }
+
+    /// Tiles of 100 bytes, each held as the number of its addition; evictions counted.
+    #[derive(Default)]
+    struct Store {
+        added: u64,
+        evicted: Vec<TileKey>,
+    }
+
+    impl TileStore<u64, u64, String> for Store {
+        fn bytes(&self, loaded: &u64) -> u64 {
+            *loaded
+        }
+        fn add(&mut self, _key: TileKey, loaded: u64) -> Result<(u64, u64), String> {
+            self.added += 1;
+            Ok((self.added, loaded))
+        }
+        fn evict(&mut self, key: TileKey, _tile: u64) {
+            self.evicted.push(key);
+        }
+    }
+
+    /// Level 0 everywhere on a 3-level map of 4×4 tiles: every tile of the pyramid read once,
+    /// at most `MAX_PENDING_TILES` at a time, none evicted with room for all; the drawn tiles
+    /// cover the map once, then a reload reads again exactly the tiles it says changed, drawing
+    /// them meanwhile, and gives them new versions.
+    #[test]
+    fn every_tile_is_read_once_and_a_reload_reads_only_the_changed() {
+        let layout = square(3, 4, 64, 10.0);
+        let options =
+            StreamOptions { detail: 1e9, resident_bytes: 1 << 20, upload_bytes: 1 << 20, ..Default::default() };
+        let level_bytes = [100, 100, 100];
+        let mut r: TileResidency<u64, u64> = TileResidency::default();
+        r.insert((2, 0, 0), 0, 100);
+        let (mut reads, mut store) = (Reads::default(), Store::default());
+        let mut last = None;
+        for _ in 0..10 {
+            assert!(reads.flying.len() <= MAX_PENDING_TILES);
+            last = Some(r.frame((&layout, &options, &level_bytes), (5.0, 5.0), &mut reads, &mut store));
+        }
+        let done = last.expect("ten frames");
+        assert_eq!((done.stats.missing, done.stats.drawn, done.stats.finest_drawn), (0, 16, 0), "{:?}", done.stats);
+        assert_eq!(reads.started.len(), 4 + 16, "each tile read once: {:?}", reads.started);
+        assert!(store.evicted.is_empty());
+        let before: HashMap<TileKey, u64> = r.iter().map(|(k, t)| (k, *t)).collect();
+        // A rebake changed the tiles of column 1 at level 0 and their level-1 parent.
+        let changed = |k: TileKey| (k.0 == 0 && k.1 == 1) || k == (1, 0, 0) || k == (1, 0, 1);
+        assert_eq!(r.reload(|k| !changed(k)), (21 - 6, 6));
+        reads.started.clear();
+        reads.slow = true;
+        let slow = r.frame((&layout, &options, &level_bytes), (5.0, 5.0), &mut reads, &mut store);
+        assert_eq!((slow.stats.drawn, slow.stats.finest_drawn), (16, 0), "the old versions are drawn meanwhile");
+        reads.slow = false;
+        for _ in 0..4 {
+            r.frame((&layout, &options, &level_bytes), (5.0, 5.0), &mut reads, &mut store);
+        }
+        let mut again = reads.started.clone();
+        again.sort();
+        let mut want: Vec<TileKey> = before.keys().copied().filter(|k| changed(*k)).collect();
+        want.sort();
+        assert_eq!(again, want);
+        for (k, t) in r.iter() {
+            assert_eq!(before[&k] != *t, changed(k), "{k:?}");
+        }
+    }
+
+    /// A budget for the root, its four tiles and one set of four below: a camera crossing the
+    /// map makes the old level-0 set go for the new one (level 0 drawn under the camera at
+    /// both ends), within the budget in every frame, the root and the level-1 tiles never.
+    #[test]
+    fn a_small_budget_evicts_what_is_no_longer_wanted_and_never_the_root() {
+        let layout = square(3, 4, 64, 10.0);
+        let options = StreamOptions { detail: 0.5, resident_bytes: 900, upload_bytes: 1 << 20, ..Default::default() };
+        let level_bytes = [100, 100, 100];
+        let mut r: TileResidency<u64, u64> = TileResidency::default();
+        r.insert((2, 0, 0), 0, 100);
+        let (mut reads, mut store) = (Reads::default(), Store::default());
+        for (cam, under) in [((5.0, 5.0), (0, 0, 0)), ((2555.0, 2555.0), (0, 3, 3))] {
+            let mut last = None;
+            for _ in 0..6 {
+                let done = r.frame((&layout, &options, &level_bytes), cam, &mut reads, &mut store);
+                assert!(done.stats.resident_bytes <= 900, "{:?}", done.stats);
+                last = Some(done);
+            }
+            assert!(last.expect("six frames").drawn.contains(&under), "level 0 under the camera at {cam:?}");
+        }
+        let mut evicted = store.evicted.clone();
+        evicted.sort();
+        assert_eq!(evicted, [(0, 0, 0), (0, 0, 1), (0, 1, 0), (0, 1, 1)]);
     }
 }

@@ -11,7 +11,7 @@ use hikage_bundle::tiles::TileIndex;
 use hikage_bundle::{Asset, PayloadData, TextureData};
 
 use super::horizon_filterable;
-use super::residency::{TileReads, TileResidency, TileStore};
+use super::residency::{TileReads, TileResidency, TileStore, check_budgets};
 use super::sun_field::{FieldTerrain, FieldTile, SunFieldSource};
 use super::terrain::{TerrainBinding, TerrainExtent, TerrainFrame, terrain_layout, terrain_program};
 use super::tile_plan::{
@@ -246,16 +246,6 @@ impl TerrainStream {
             return Err(bad(format!("no map baked in tiles of that name; the bundle has: {}", maps.join(", "))));
         }
         let layout = TileLayout::new(map, |part, level, at| index.tile(part, level, at))?;
-        for level in 0..layout.levels.len() as u32 {
-            let first = index.tile(&layout.parts.horizon, level, (0, 0)).expect("the layout found it");
-            let (w, h) = first.payload.texture().map_or((0, 0), |t| (t.width, t.height));
-            if w.max(h) > MAX_TILE_SIDE {
-                return Err(bad(format!(
-                    "tiles of {w}×{h} texels: a streamed terrain holds tiles of at most {MAX_TILE_SIDE} a side (bake with tile ≤ {})",
-                    MAX_TILE_SIDE - 1
-                )));
-            }
-        }
         let first = index.tile(&layout.parts.horizon, 0, (0, 0)).expect("the layout found it");
         let format = first.payload.texture().map(|t| t.format).expect("a texture");
         let filterable = horizon_filterable(device, format);
@@ -284,31 +274,18 @@ impl TerrainStream {
             .map_err(|e| bad(format!("could not start the loader thread: {e}")))?;
 
         let binder = Binder { tiles: layout, skirt_texels: options.skirt_texels, layout: group_layout, filterable };
-        // What a tile holds on the device: the coarsest level's tiles and a level-0 tile, the
-        // largest, must fit the budgets before anything is read.
+        // What a tile holds on the device: the budgets are checked before anything is read.
         let tiles = &binder.tiles;
         let tile_bytes = |key: Key| -> u64 {
             let entries: Vec<Asset> = tiles.parts.all().filter_map(|p| index.tile(p, key.0, (key.1, key.2))).collect();
             tile_device_bytes(&entries)
         };
+        let side = |level: u32| {
+            let first = index.tile(&tiles.parts.horizon, level, (0, 0));
+            first.and_then(|a| a.payload.texture().map(|t| (t.width, t.height))).unwrap_or((0, 0))
+        };
+        let level_bytes = check_budgets(tiles, &options, side, tile_bytes).map_err(bad)?;
         let roots: Vec<Key> = tiles.roots().collect();
-        let level_bytes: Vec<u64> = (0..tiles.levels.len() as u32).map(|k| tile_bytes((k, 0, 0))).collect();
-        let root_bytes: u64 = roots.iter().map(|&k| tile_bytes(k)).sum();
-        let largest = level_bytes[0];
-        if root_bytes + largest > options.resident_bytes {
-            return Err(bad(format!(
-                "the coarsest level's {} tiles hold {root_bytes} bytes and a level-0 tile {largest}: above the \
-                 resident budget of {} (bake levels of detail, `levels: Some(16)`, or raise the budget)",
-                roots.len(),
-                options.resident_bytes
-            )));
-        }
-        if largest > options.upload_bytes {
-            return Err(bad(format!(
-                "a level-0 tile holds {largest} bytes, above the upload budget of {} a frame",
-                options.upload_bytes
-            )));
-        }
         let shortfall = binder.tiles.budget_shortfall(&options, |k| level_bytes[k.0 as usize]);
         // The coarsest level, now: there is always terrain to draw.
         let mut residency = TileResidency::default();

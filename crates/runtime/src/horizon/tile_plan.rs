@@ -606,12 +606,12 @@ pub fn heights_with_apron(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// A square map of `levels` levels, `grid`² tiles of `tile`² texels of `texel` m at level
     /// 0, without reading a bundle.
-    fn square(levels: u32, grid: u32, tile: u32, texel: f32) -> TileLayout {
+    pub(crate) fn square(levels: u32, grid: u32, tile: u32, texel: f32) -> TileLayout {
         let level = |k: u32| TileLevel {
             grid: (grid >> k, grid >> k),
             size: (grid * tile / (1 << k) + 1, grid * tile / (1 << k) + 1),
