@@ -15,7 +15,10 @@
 //! - [`export`] writes assets back out: textures as EXR or raw little-endian f32, meshes as
 //!   binary glTF.
 //! - [`shard`] splits a pipeline over machines (`--shard K/N`) and merges the parts; [`cache`]
-//!   shares baked payloads between checkouts and machines by input hash.
+//!   shares baked payloads between checkouts and machines by input hash; [`report`] says what a
+//!   run baked and why.
+//! - [`sheet`] draws a bundle's contact sheet for review; [`compression`] chooses each payload's
+//!   zstd level; [`mesh`] reads OBJ and glTF meshes; [`bc4`] encodes relief maps as BC4.
 //!
 //! The library never prints (except the `cargo::` lines a build script asks for, in
 //! [`build`]); progress goes to an [`run::Observer`].

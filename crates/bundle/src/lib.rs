@@ -18,6 +18,16 @@
 //! - [`Bundle::open`] reads a bundle back with every payload's size and hash checked;
 //!   [`validate()`] checks everything a reader relies on and reports each problem.
 //!
+//! Its modules, each named after what it holds:
+//!
+//! - the manifest and its parts: [`manifest`] (the schema and each kind's settings), [`tiles`]
+//!   (a tiled map's tile table and [`tiles::TileIndex`], the reader both streams use),
+//!   [`budget`] (a pipeline's byte budgets), [`files`] (reading and writing inside a bundle);
+//! - payloads: [`texture`], [`ktx2_file`], [`zstd`], [`bc`] (BC4/BC5 blocks), [`mesh`],
+//!   [`strands`], [`binding`] (hair bound to a skinned scalp), [`relief`] (the max-mip pyramid);
+//! - reading back: [`validate`](mod@validate), [`inspect`] (sizes on disk and on the GPU), [`diff`] (two
+//!   bundles compared in each method's terms).
+//!
 //! ```no_run
 //! let bundle = hikage_bundle::Bundle::open("bundle".as_ref())?;
 //! for asset in &bundle.manifest().assets {

@@ -14,12 +14,17 @@
 //! with the bindings at the group index the game chose, for the game's own shaders:
 //!
 //! - [`horizon::TerrainShadows`]: a heightfield under a sun, horizon shadows and ambient
-//!   occlusion (seed 000 on terrain);
+//!   occlusion (seed 000 on terrain); [`horizon::TerrainStream`]: the same for a map of any
+//!   size, baked in tiles with levels of detail and streamed around the camera (its residency,
+//!   [`horizon::TileResidency`], is what another engine's stream runs too);
+//! - [`horizon::SunField`]: the terrain's sun visibility at any world point, for the game's own
+//!   shaders — houses, trees and water in a mountain's shadow kilometres away;
 //! - [`horizon::SurfaceShadows`]: a bump map on a curved mesh with the curvature-corrected
 //!   horizon test (seed 000 §3);
 //! - [`relief::ReliefMaterial`]: relief mapping with depth-map shadows and ambient occlusion on
 //!   any mesh with tangents (seed 003);
-//! - [`hair::HairRenderer`]: deep opacity maps and hair blended at its opacity (seed 004);
+//! - [`hair::HairRenderer`]: deep opacity maps and hair blended at its opacity (seed 004), and
+//!   [`hair::HairSkin`]: hair following a skinned scalp;
 //! - [`shadow_fit`]: the per-frame light projection fitted to what the camera sees (seed 001,
 //!   CPU).
 //!

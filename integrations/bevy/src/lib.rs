@@ -11,8 +11,8 @@
 //!   around the camera;
 //! - [`ReliefSurface`]: relief mapping with self-shadowing on any mesh with tangents;
 //! - [`CurvedSurface`]: a bump map's horizon shadows corrected for a mesh's curvature;
-//! - [`TerrainReceiver`]: any mesh in the far shadow of a [`HorizonTerrain`], past Bevy's
-//!   cascades;
+//! - [`TerrainReceiver`]: any mesh in the far shadow of a [`HorizonTerrain`] or a
+//!   [`StreamedTerrain`] (its sun field in the render world), past Bevy's cascades;
 //! - [`HairStrands`]: hair strips blended over the scene with deep opacity maps from the sun,
 //!   shadowing [`HairReceiver`] meshes;
 //! - [`FittedShadows`]: a directional light's shadow map fitted to the visible geometry.
