@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 use hikage_bundle::Bundle;
-use hikage_bundle::diff::{Status, Tolerances, diff};
+use hikage_bundle::diff::{Status, TOLERANCES, Tolerance, Tolerances, diff};
 
 use crate::{Failure, OutputFormat};
 
@@ -29,34 +29,9 @@ pub struct DiffArgs {
     /// Take the tolerances from this pipeline's `tolerances` (the flags override them).
     #[arg(long, value_name = "PIPELINE")]
     pipeline: Option<PathBuf>,
-    /// Largest change of a horizon angle, degrees.
-    #[arg(long, value_name = "DEGREES")]
-    horizon_degrees: Option<f32>,
-    /// Share (0–1) of the sun tests (2°, 5°, 10°, 20°, 30° at every azimuth and texel) that may
-    /// flip between lit and shadowed.
-    #[arg(long, value_name = "SHARE")]
-    sun_flips: Option<f32>,
-    /// Largest change of a horizon's distance, texels.
-    #[arg(long, value_name = "TEXELS")]
-    distance_texels: Option<f32>,
-    /// Largest change of a height, world units.
-    #[arg(long, value_name = "UNITS")]
-    height: Option<f32>,
-    /// Largest change of ambient occlusion (0–1).
-    #[arg(long, value_name = "AO")]
-    ao: Option<f32>,
-    /// Largest change of a relief depth, deeper or shallower, texels.
-    #[arg(long, value_name = "TEXELS")]
-    relief_texels: Option<f32>,
-    /// Largest relative change of a principal curvature.
-    #[arg(long, value_name = "SHARE")]
-    curvature: Option<f32>,
-    /// Largest move of a strand point or mesh vertex, world units.
-    #[arg(long, value_name = "UNITS")]
-    point_move: Option<f32>,
-    /// Largest change of any other value (max-mip pyramids, plain textures, mesh streams).
-    #[arg(long, value_name = "VALUE")]
-    value: Option<f32>,
+    /// The tolerances given as flags, one per tolerance of the library's table.
+    #[command(flatten)]
+    flags: ToleranceFlags,
     /// List every asset, the unchanged ones too.
     #[arg(long)]
     all: bool,
@@ -77,28 +52,51 @@ impl DiffArgs {
             }
             None => Tolerances::default(),
         };
-        for (flag, field) in [
-            (self.horizon_degrees, &mut t.horizon_degrees),
-            (self.sun_flips, &mut t.sun_flips),
-            (self.distance_texels, &mut t.distance_texels),
-            (self.height, &mut t.height),
-            (self.ao, &mut t.ao),
-            (self.relief_texels, &mut t.relief_texels),
-            (self.curvature, &mut t.curvature),
-            (self.point_move, &mut t.point_move),
-            (self.value, &mut t.value),
-        ] {
-            if let Some(v) = flag {
-                if !(v >= 0.0 && v.is_finite()) {
-                    return Err(Failure {
-                        code: 2,
-                        error: anyhow::anyhow!("a tolerance is a finite number ≥ 0, not {v}"),
-                    });
-                }
-                *field = v;
+        for (tolerance, v) in &self.flags.0 {
+            if !(*v >= 0.0 && v.is_finite()) {
+                return Err(Failure {
+                    code: 2, error: anyhow::anyhow!("a tolerance is a finite number ≥ 0, not {v}")
+                });
             }
+            *(tolerance.field)(&mut t) = *v;
         }
         Ok(t)
+    }
+}
+
+/// `--horizon-degrees`, `--sun-flips`, …: a flag for each entry of the library's
+/// [`TOLERANCES`], with its unit and help, and the values given.
+#[derive(Clone, Debug, Default)]
+struct ToleranceFlags(Vec<(&'static Tolerance, f32)>);
+
+impl clap::FromArgMatches for ToleranceFlags {
+    fn from_arg_matches(matches: &clap::ArgMatches) -> Result<Self, clap::Error> {
+        let given = TOLERANCES.iter().filter_map(|t| matches.get_one::<f32>(t.name).map(|v| (t, *v))).collect();
+        Ok(ToleranceFlags(given))
+    }
+
+    fn update_from_arg_matches(&mut self, matches: &clap::ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(matches)?;
+        Ok(())
+    }
+}
+
+impl clap::Args for ToleranceFlags {
+    fn augment_args(command: clap::Command) -> clap::Command {
+        TOLERANCES.iter().fold(command, |command, t| {
+            command.arg(
+                clap::Arg::new(t.name)
+                    .long(t.flag)
+                    .value_name(t.unit)
+                    .help(t.doc)
+                    .value_parser(clap::value_parser!(f32))
+                    .allow_negative_numbers(true),
+            )
+        })
+    }
+
+    fn augment_args_for_update(command: clap::Command) -> clap::Command {
+        Self::augment_args(command)
     }
 }
 

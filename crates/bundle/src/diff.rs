@@ -13,6 +13,92 @@ use crate::{Asset, AssetKind, Bundle, BundleError, Settings, TextureData};
 /// every texel at every stored azimuth under each.
 pub const SUN_ELEVATIONS: [f32; 5] = [2.0, 5.0, 10.0, 20.0, 30.0];
 
+/// One tolerance, defined once for the library, `hikage diff`'s flags and a pipeline's
+/// `tolerances`: its name (the field and the pipeline's key), its flag, the unit its value is
+/// counted in, what it bounds, and its field of [`Tolerances`].
+#[derive(Clone, Copy, Debug)]
+pub struct Tolerance {
+    /// The name in a pipeline's `tolerances` and the field of [`Tolerances`].
+    pub name: &'static str,
+    /// `hikage diff`'s flag (`--<flag>`).
+    pub flag: &'static str,
+    /// What the value is counted in, for a flag's help.
+    pub unit: &'static str,
+    /// What it bounds, as a help line (no final stop).
+    pub doc: &'static str,
+    /// Its field.
+    pub field: fn(&mut Tolerances) -> &mut f32,
+}
+
+/// Every tolerance, in the order reports list them.
+pub const TOLERANCES: [Tolerance; 9] = [
+    Tolerance {
+        name: "horizon_degrees",
+        flag: "horizon-degrees",
+        unit: "DEGREES",
+        doc: "Largest change of a horizon angle, degrees",
+        field: |t| &mut t.horizon_degrees,
+    },
+    Tolerance {
+        name: "sun_flips",
+        flag: "sun-flips",
+        unit: "SHARE",
+        doc: "Share (0–1) of the sun tests (2°, 5°, 10°, 20°, 30° at every azimuth and texel) that may flip between \
+              lit and shadowed",
+        field: |t| &mut t.sun_flips,
+    },
+    Tolerance {
+        name: "distance_texels",
+        flag: "distance-texels",
+        unit: "TEXELS",
+        doc: "Largest change of a horizon's distance, texels",
+        field: |t| &mut t.distance_texels,
+    },
+    Tolerance {
+        name: "height",
+        flag: "height",
+        unit: "UNITS",
+        doc: "Largest change of a height, world units",
+        field: |t| &mut t.height,
+    },
+    Tolerance {
+        name: "ao",
+        flag: "ao",
+        unit: "AO",
+        doc: "Largest change of ambient occlusion (0–1)",
+        field: |t| &mut t.ao,
+    },
+    Tolerance {
+        name: "relief_texels",
+        flag: "relief-texels",
+        unit: "TEXELS",
+        doc: "Largest change of a relief depth, deeper or shallower, texels",
+        field: |t| &mut t.relief_texels,
+    },
+    Tolerance {
+        name: "curvature",
+        flag: "curvature",
+        unit: "SHARE",
+        doc: "Largest relative change of a principal curvature",
+        field: |t| &mut t.curvature,
+    },
+    Tolerance {
+        name: "point_move",
+        flag: "point-move",
+        unit: "UNITS",
+        doc: "Largest move of a strand point or mesh vertex, world units",
+        field: |t| &mut t.point_move,
+    },
+    Tolerance {
+        name: "value",
+        flag: "value",
+        unit: "VALUE",
+        doc: "Largest change of any other value: max-mip pyramids, plain textures, and mesh streams other than \
+              positions and curvature",
+        field: |t| &mut t.value,
+    },
+];
+
 /// How far each measure may move before a change is beyond tolerance. All 0 by default: any
 /// change of a decoded value fails. Set in a pipeline's `tolerances` or by `hikage diff`'s flags.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -35,24 +121,15 @@ pub struct Tolerances {
     pub curvature: f32,
     /// Largest move of a strand point or mesh vertex, world units.
     pub point_move: f32,
-    /// Largest change of any other texture's value (max-mip pyramids, plain textures).
+    /// Largest change of any other value: max-mip pyramids, plain textures, and mesh streams
+    /// other than positions and curvature.
     pub value: f32,
 }
 
 impl Tolerances {
     /// Each tolerance with its name, as a pipeline's `tolerances` spells it.
     pub fn named(&self) -> [(&'static str, f32); 9] {
-        [
-            ("horizon_degrees", self.horizon_degrees),
-            ("sun_flips", self.sun_flips),
-            ("distance_texels", self.distance_texels),
-            ("height", self.height),
-            ("ao", self.ao),
-            ("relief_texels", self.relief_texels),
-            ("curvature", self.curvature),
-            ("point_move", self.point_move),
-            ("value", self.value),
-        ]
+        TOLERANCES.map(|t| (t.name, *(t.field)(&mut self.clone())))
     }
 
     /// The first tolerance that is not a finite number ≥ 0, as a message naming it: NaN would
@@ -427,6 +504,23 @@ fn mesh_change(
 
 #[cfg(test)]
 mod tests {
+
+    /// Each tolerance's name is the key a pipeline writes and the field it sets, and its flag
+    /// is the name with dashes: the one table is what every spelling reads.
+    #[test]
+    fn each_tolerance_is_one_name_one_flag_one_field() {
+        for (k, t) in TOLERANCES.iter().enumerate() {
+            let parsed: Tolerances = ron::from_str(&format!("({}: {})", t.name, k + 1)).unwrap();
+            let mut values = parsed;
+            assert_eq!(*(t.field)(&mut values), (k + 1) as f32, "{}", t.name);
+            assert_eq!(parsed.named()[k], (t.name, (k + 1) as f32));
+            assert_eq!(t.flag, t.name.replace('_', "-"));
+            assert!(!t.doc.ends_with('.') && !t.unit.is_empty(), "a help line, as clap prints them");
+        }
+        let names: std::collections::BTreeSet<&str> = TOLERANCES.iter().map(|t| t.name).collect();
+        assert_eq!(names.len(), TOLERANCES.len());
+    }
+
     use super::*;
 
     /// A value that became NaN is the largest change, not none; a NaN or negative tolerance is
