@@ -250,7 +250,7 @@ pub fn manifest_problems(manifest: &Manifest, limits: &Limits) -> Vec<(String, S
         })
         .collect();
     let per_asset =
-        crate::parallel::map(&manifest.assets, |i, a| asset_problems(manifest, i, a, repeats[i], &kinds, limits));
+        crate::parallel::map(&manifest.assets, 4096, |i, a| asset_problems(manifest, i, a, repeats[i], &kinds, limits));
     per_asset.into_iter().flatten().collect()
 }
 

@@ -229,19 +229,9 @@ pub fn diff(old: &Bundle, new: &Bundle, tolerances: &Tolerances) -> Result<Vec<A
     let (in_a, in_b) = (by_id(a), by_id(b));
     let work: Vec<(&str, Option<&Asset>, Option<&Asset>)> =
         ids.iter().map(|&id| (id, in_a.get(id).copied(), in_b.get(id).copied())).collect();
-    // Each asset on its own thread, at most as many at once as there are cores.
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let mut out = Vec::with_capacity(work.len());
-    for batch in work.chunks(threads) {
-        let results: Vec<Result<AssetDiff, BundleError>> = std::thread::scope(|scope| {
-            let handles: Vec<_> =
-                batch.iter().map(|&(id, x, y)| scope.spawn(move || compare(old, new, id, x, y, tolerances))).collect();
-            handles.into_iter().map(|h| h.join().expect("a comparison never panics")).collect()
-        });
-        for r in results {
-            out.push(r?);
-        }
-    }
+    // Assets on every core, each taken by the next free thread (their costs differ widely).
+    let out = crate::parallel::map(&work, 2, |_, &(id, x, y)| compare(old, new, id, x, y, tolerances));
+    let out: Vec<AssetDiff> = out.into_iter().collect::<Result<_, _>>()?;
     Ok(out)
 }
 
