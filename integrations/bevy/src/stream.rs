@@ -474,7 +474,8 @@ fn start(
         first.and_then(|e| e.payload.texture().map(|t| (t.width, t.height))).unwrap_or((0, 0))
     };
     let options = &terrain.options;
-    let level_bytes = check_budgets(&layout, options, side, bytes).map_err(|e| format!("map `{}`: {e}", terrain.map))?;
+    let level_bytes =
+        check_budgets(&layout, options, side, bytes).map_err(|e| format!("map `{}`: {e}", terrain.map))?;
     let shortfall = layout.budget_shortfall(options, |k| level_bytes[k.0 as usize]);
     let path = server.get_path(terrain.bundle.id()).ok_or("the bundle has no asset path")?;
     static STREAMS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
