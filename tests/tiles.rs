@@ -227,12 +227,13 @@ fn a_tile_table_reads_back_as_the_entries_it_was_written_from() {
     // A set claiming more records than readers accept is refused before its table is read.
     let huge = text.replace(&format!("records: {}", manifest.assets.len()), "records: 4000000000");
     dir.write("b/bundle.ron", huge);
-    match Bundle::open(&dir.path("b")).unwrap_err() {
-        BundleError::Limit { what, value, .. } => assert!(what.contains("asset count") && value >= 4_000_000_000),
-        e => panic!("expected a limit, got {e}"),
+    // Both readers alike: one reading of the tables.
+    for err in [Bundle::open(&dir.path("b")).unwrap_err(), TileIndex::open(&dir.path("b")).unwrap_err()] {
+        match err {
+            BundleError::Limit { what, value, .. } => assert!(what.contains("asset count") && value >= 4_000_000_000),
+            e => panic!("expected a limit, got {e}"),
+        }
     }
-    let err = TileIndex::open(&dir.path("b")).unwrap_err().to_string();
-    assert!(err.contains("4000000000 records, above the limit"), "{err}");
 }
 
 #[test]
@@ -466,6 +467,27 @@ fn an_edit_rebakes_only_the_tiles_whose_windows_it_touches() {
         assert!(id.ends_with(&suffix) && tile["map"] == "lod", "{a}");
         let rect: Vec<u64> = tile["rect"].as_array().unwrap().iter().map(|v| v.as_u64().unwrap()).collect();
         assert_eq!(rect[..2], [index.0 as u64 * 32, index.1 as u64 * 32], "{a}");
+    }
+}
+
+/// The stream's tile reader and the bundle's reader count the same assets against
+/// `max_assets`, plain entries and tiles together, and refuse a bundle past it alike: as a
+/// limit, naming the table.
+#[test]
+fn both_readers_count_plain_assets_and_tiles_against_the_limit() {
+    let dir = setup("tiles_limit", "Clamp");
+    dir.run(&["bake"]);
+    let all = Bundle::open(&dir.path("bundle")).unwrap().manifest().assets.len();
+    let at = |max_assets: usize| hikage_bundle::Limits { max_assets, ..hikage_bundle::Limits::default() };
+    assert!(Bundle::open_with_limits(&dir.path("bundle"), at(all)).is_ok());
+    assert!(TileIndex::open_with_limits(&dir.path("bundle"), at(all)).is_ok());
+    for error in [
+        Bundle::open_with_limits(&dir.path("bundle"), at(all - 1)).err(),
+        TileIndex::open_with_limits(&dir.path("bundle"), at(all - 1)).err(),
+    ] {
+        let error = error.expect("refused past the limit");
+        assert!(matches!(error, BundleError::Limit { .. }), "{error}");
+        assert!(error.to_string().contains("tile-table") && error.to_string().contains(&all.to_string()), "{error}");
     }
 }
 

@@ -640,10 +640,32 @@ impl Manifest {
         limits: &Limits,
         read_table: &mut dyn FnMut(&TileSet) -> Result<Vec<u8>, BundleError>,
     ) -> Result<Manifest, BundleError> {
-        let file = Manifest::parse_file(text, path)?;
+        let (file, tables) = Manifest::read_tables(text, path, limits, &mut |set, _| read_table(set))?;
         let mut assets = file.assets;
-        let mut room = (limits.max_assets as u64).saturating_sub(assets.len() as u64);
-        for set in &file.tile_sets {
+        for (set, bytes) in &tables {
+            assets.extend(crate::tiles::tile_assets(set, bytes));
+        }
+        if !tables.is_empty() {
+            assets.sort_by(|a, b| a.id.cmp(&b.id));
+        }
+        Ok(Manifest { format: file.format, generator: file.generator, budget: file.budget, assets })
+    }
+
+    /// The one reading of a manifest's tile tables, for [`Manifest::parse_with_tables`] and
+    /// [`crate::tiles::TileIndex`] alike: each table's name inside the bundle, its records
+    /// counted with the plain assets against `limits.max_assets` (a limit error past it), its
+    /// length checked before `read_table(set, length)` is asked for it, then its size, hash,
+    /// header and records as the tile reader relies on them.
+    pub(crate) fn read_tables(
+        text: &str,
+        path: &Path,
+        limits: &Limits,
+        read_table: &mut TableReader<'_>,
+    ) -> Result<(ManifestFile, Vec<TableBytes>), BundleError> {
+        let mut file = Manifest::parse_file(text, path)?;
+        let mut room = (limits.max_assets as u64).saturating_sub(file.assets.len() as u64);
+        let mut tables = Vec::new();
+        for set in std::mem::take(&mut file.tile_sets) {
             let table_path = path.with_file_name(&set.table);
             let bad = |message: String| BundleError::Payload {
                 path: table_path.clone(),
@@ -653,26 +675,21 @@ impl Manifest {
             if !crate::names::is_safe_file_name(&set.table) {
                 return Err(bad(format!("{:?} is not a plain file name inside the bundle directory", set.table)));
             }
-            crate::tiles::expected_bytes(set, room).map_err(|m| {
-                if set.records > room {
-                    BundleError::Limit {
-                        path: table_path.clone(),
-                        what: "asset count with the tiles".into(),
-                        value: limits.max_assets as u64 - room + set.records,
-                        limit: limits.max_assets as u64,
-                    }
-                } else {
-                    bad(m)
-                }
-            })?;
-            let bytes = read_table(set)?;
-            assets.extend(crate::tiles::unpack(set, &bytes, room).map_err(bad)?);
+            if set.records > room {
+                return Err(BundleError::Limit {
+                    path: table_path.clone(),
+                    what: "asset count with the tiles".into(),
+                    value: limits.max_assets as u64 - room + set.records,
+                    limit: limits.max_assets as u64,
+                });
+            }
+            let length = crate::tiles::expected_bytes(&set, room).map_err(bad)?;
+            let bytes = read_table(&set, length)?;
+            crate::tiles::check(&set, &bytes, room).map_err(bad)?;
             room -= set.records;
+            tables.push((set, bytes));
         }
-        if !file.tile_sets.is_empty() {
-            assets.sort_by(|a, b| a.id.cmp(&b.id));
-        }
-        Ok(Manifest { format: file.format, generator: file.generator, budget: file.budget, assets })
+        Ok((file, tables))
     }
 
     /// The tile sets `bundle.ron`'s `text` lists, its tables not read: what a reader needs to
@@ -738,14 +755,20 @@ impl Manifest {
     }
 }
 
+/// How [`Manifest::read_tables`] gets a table's bytes: given the set and the length it must have.
+pub(crate) type TableReader<'a> = dyn FnMut(&TileSet, u64) -> Result<Vec<u8>, BundleError> + 'a;
+
+/// A tile set and its table's bytes, checked.
+pub(crate) type TableBytes = (TileSet, Vec<u8>);
+
 /// `bundle.ron` as written: the plain entries, and the maps baked in tiles as tile sets.
 #[derive(Serialize, Deserialize)]
-struct ManifestFile {
+pub(crate) struct ManifestFile {
     format: FormatVersion,
     generator: String,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     budget: Option<crate::budget::Budget>,
-    assets: Vec<Asset>,
+    pub(crate) assets: Vec<Asset>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     tile_sets: Vec<TileSet>,
 }

@@ -302,15 +302,19 @@ pub(crate) fn expected_bytes(set: &TileSet, max_records: u64) -> Result<u64, Str
     Ok(expected)
 }
 
-/// The assets of a set from its table file's `bytes` (already read): the file's size, hash
-/// and header are checked, and every record must name a part of the set and a tile of its map,
-/// in id order, on its grid ([`check_records`]).
-pub(crate) fn unpack(set: &TileSet, bytes: &[u8], max_records: u64) -> Result<Vec<Asset>, String> {
+/// A set's table file `bytes` (already read) against what a reader relies on: the file's size,
+/// hash and header, and every record naming a part of the set and a tile of its map, in id
+/// order, on its grid ([`check_records`]).
+pub(crate) fn check(set: &TileSet, bytes: &[u8], max_records: u64) -> Result<(), String> {
     check_table(set, bytes, max_records)?;
-    check_records(set, bytes)?;
-    // Every record names a part of the set: `check_records` said so.
+    check_records(set, bytes)
+}
+
+/// The tiles of a set whose table `bytes` passed [`check`], as assets, in the table's order.
+pub(crate) fn tile_assets<'a>(set: &'a TileSet, bytes: &'a [u8]) -> impl Iterator<Item = Asset> + 'a {
+    // `check` said every record names a part of the set.
     let records = bytes[HEADER_BYTES as usize..].chunks_exact(RECORD_BYTES as usize).map(read_record);
-    Ok(records.map(|r| expand(&set.parts[r.part as usize], &r)).collect())
+    records.map(|r| expand(&set.parts[r.part as usize], &r))
 }
 
 /// The records of a table whose bytes passed [`check_table`], against what a reader relies on:
@@ -436,40 +440,26 @@ impl TileIndex {
         let path = dir.join(crate::MANIFEST_FILE);
         let text = crate::files::read_limited(&path, limits.max_manifest_bytes, "manifest size")?;
         let text = String::from_utf8_lossy(&text);
-        let mut sets = Vec::new();
-        let mut room = limits.max_assets as u64;
-        for set in crate::Manifest::tile_sets(&text, &path)? {
-            let table = dir.join(&set.table);
-            let bad = |message: String| BundleError::Payload {
-                path: table.clone(),
-                asset: set.map.clone(),
-                message: format!("tile table: {message}"),
-            };
-            if !crate::names::is_safe_file_name(&set.table) {
-                return Err(bad(format!("{:?} is not a plain file name inside the bundle directory", set.table)));
-            }
-            let length = expected_bytes(&set, room).map_err(bad)?;
-            let bytes = crate::files::read_in_bundle(&table, length, "tile table size")?;
-            // The whole set checked as a reader of the full manifest checks it, one tile of
-            // each part standing for the rest (they differ only in numbers checked here).
-            check_table(&set, &bytes, room).map_err(bad)?;
-            check_records(&set, &bytes).map_err(bad)?;
+        let read = &mut |set: &TileSet, length: u64| {
+            crate::files::read_in_bundle(&dir.join(&set.table), length, "tile table size")
+        };
+        let (_, sets) = crate::Manifest::read_tables(&text, &path, &limits, read)?;
+        for (set, bytes) in &sets {
+            // Each part as a reader of the full manifest checks it, its first tile standing for
+            // the rest (they differ only in numbers `read_tables` checked).
             let mut first: Vec<Option<Asset>> = vec![None; set.parts.len()];
-            // Every record names a part of the set: `check_records` said so.
-            for chunk in bytes[HEADER_BYTES as usize..].chunks_exact(RECORD_BYTES as usize) {
-                let r = read_record(chunk);
+            // `read_tables` said every record names a part of the set.
+            for r in bytes[HEADER_BYTES as usize..].chunks_exact(RECORD_BYTES as usize).map(read_record) {
                 let slot = &mut first[r.part as usize];
                 if slot.is_none() {
                     *slot = Some(expand(&set.parts[r.part as usize], &r));
                 }
             }
-            let mut sample = crate::Manifest::new();
-            sample.assets = first.into_iter().flatten().collect();
-            if let Some((asset, message)) = crate::bundle::manifest_problems(&sample, &limits).into_iter().next() {
+            let mut manifest = crate::Manifest::new();
+            manifest.assets = first.into_iter().flatten().collect();
+            if let Some((asset, message)) = crate::bundle::manifest_problems(&manifest, &limits).into_iter().next() {
                 return Err(BundleError::InvalidAsset { path: path.clone(), asset, message });
             }
-            room -= set.records;
-            sets.push((set, bytes));
         }
         Ok(TileIndex { dir: dir.to_path_buf(), limits, sets })
     }
