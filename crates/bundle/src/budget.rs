@@ -139,7 +139,8 @@ pub fn made_by(id: &str, job: &str) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::manifest::{Asset, AssetKind, Payload, Settings};
+    use crate::manifest::{Asset, AssetKind, Payload};
+    use crate::settings::Settings;
     use crate::texture::{Supercompression, TextureDesc, TextureDimension, TextureFormat};
 
     fn texture(id: &str, side: u32, byte_length: u64) -> Asset {

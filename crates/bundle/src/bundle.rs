@@ -7,9 +7,10 @@ use std::sync::Arc;
 use crate::error::BundleError;
 use crate::files::read_limited;
 use crate::limits::Limits;
-use crate::manifest::{Asset, AssetKind, MANIFEST_FILE, Manifest, Payload, Settings};
+use crate::manifest::{Asset, AssetKind, MANIFEST_FILE, Manifest, Payload};
 use crate::mesh::{MeshData, MeshDesc};
 use crate::names::{check_asset_id, is_safe_file_name};
+use crate::settings::Settings;
 use crate::texture::{Supercompression, TextureData, TextureDesc, TextureDimension};
 use crate::version::FormatVersion;
 

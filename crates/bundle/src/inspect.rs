@@ -2,7 +2,8 @@
 
 use serde::Serialize;
 
-use crate::manifest::{Manifest, Payload, Settings, StrandsSettings};
+use crate::manifest::{Manifest, Payload};
+use crate::settings::{Settings, StrandsSettings};
 
 /// One asset as `hikage inspect` shows it.
 #[derive(Clone, Debug, PartialEq, Serialize)]

@@ -20,13 +20,14 @@
 //!
 //! Its modules, each named after what it holds:
 //!
-//! - the manifest and its parts: [`manifest`] (the schema and each kind's settings), [`tiles`]
-//!   (a tiled map's tile table and [`tiles::TileIndex`], the reader both streams use),
-//!   [`budget`] (a pipeline's byte budgets), [`files`] (reading and writing inside a bundle);
+//! - the manifest and its parts: [`manifest`] (the schema), [`settings`] (each kind's
+//!   settings), [`tiles`] (a tiled map's tile table and [`tiles::TileIndex`], the reader both
+//!   streams use), [`budget`] (a pipeline's byte budgets), [`files`] (reading and writing inside
+//!   a bundle);
 //! - payloads: [`texture`], [`ktx2_file`], [`zstd`], [`bc`] (BC4/BC5 blocks), [`mesh`],
 //!   [`strands`], [`binding`] (hair bound to a skinned scalp), [`relief`] (the max-mip pyramid);
-//! - reading back: [`validate`](mod@validate), [`inspect`] (sizes on disk and on the GPU), [`diff`] (two
-//!   bundles compared in each method's terms).
+//! - reading back: [`validate`](mod@validate), [`inspect`] (sizes on disk and on the GPU),
+//!   [`diff`] (two bundles compared in each method's terms).
 //!
 //! ```no_run
 //! let bundle = hikage_bundle::Bundle::open("bundle".as_ref())?;
@@ -51,6 +52,7 @@ pub mod mesh;
 mod names;
 mod parallel;
 pub mod relief;
+pub mod settings;
 pub mod strands;
 pub mod texture;
 pub mod tiles;
@@ -65,13 +67,15 @@ pub use bundle::{Bundle, READERS_LOCK_FILE, decode_mesh};
 pub use error::BundleError;
 pub use limits::Limits;
 pub use manifest::{
-    AmbientOcclusionSettings, Asset, AssetKind, BINDING_STREAMS, CURVATURE_STREAMS, CurvatureSettings, EdgeMode,
-    HairBindingSettings, HeightfieldSettings, HorizonSettings, MANIFEST_FILE, Manifest, MaxMipSettings, Payload,
-    ReliefSettings, SCALP_STREAMS, STRANDS_RECORD_BYTES, STRANDS_STREAMS, ScalpSettings, Settings, StrandsSettings,
-    Stream, TilePlacement,
+    Asset, AssetKind, BINDING_STREAMS, CURVATURE_STREAMS, MANIFEST_FILE, Manifest, Payload, SCALP_STREAMS,
+    STRANDS_RECORD_BYTES, STRANDS_STREAMS, Stream,
 };
 pub use mesh::{Accessor, ComponentType, MAX_VERTEX_STRIDE, MeshData, MeshDesc, VertexFetch};
 pub use names::{check_asset_id, is_payload_file_of, is_valid_asset_id, payload_file_name};
+pub use settings::{
+    AmbientOcclusionSettings, CurvatureSettings, EdgeMode, HairBindingSettings, HeightfieldSettings, HorizonSettings,
+    MaxMipSettings, ReliefSettings, ScalpSettings, Settings, StrandsSettings, TilePlacement,
+};
 pub use strands::{StrandPoint, read_strand_points, strands_desc};
 pub use texture::{Supercompression, TextureData, TextureDesc, TextureDimension, TextureFormat};
 

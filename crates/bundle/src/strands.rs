@@ -2,8 +2,9 @@
 //! runtime's shaders and CPU reference: one definition of the encoding (octahedral tangents,
 //! unorm widths and opacities, sRGB colour bytes) on both sides.
 
-use crate::manifest::{STRANDS_RECORD_BYTES, STRANDS_STREAMS, StrandsSettings};
+use crate::manifest::{STRANDS_RECORD_BYTES, STRANDS_STREAMS};
 use crate::mesh::{Accessor, MeshData, MeshDesc};
+use crate::settings::StrandsSettings;
 
 /// One strand point as a `Strands` record holds it (see [`crate::AssetKind::Strands`]).
 #[derive(Clone, Copy, Debug, PartialEq)]

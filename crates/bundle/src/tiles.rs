@@ -40,10 +40,9 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::error::BundleError;
-use crate::manifest::{
-    AmbientOcclusionSettings, Asset, HeightfieldSettings, HorizonSettings, Payload, Settings, TilePlacement,
-};
+use crate::manifest::{Asset, Payload};
 use crate::names::payload_file_name;
+use crate::settings::{AmbientOcclusionSettings, HeightfieldSettings, HorizonSettings, Settings, TilePlacement};
 use crate::texture::TextureDesc;
 
 /// The table file's first eight bytes.

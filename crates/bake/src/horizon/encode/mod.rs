@@ -3,7 +3,7 @@
 
 pub(super) mod rg8;
 
-use hikage_bundle::manifest::decode_horizon_texel;
+use hikage_bundle::settings::decode_horizon_texel;
 use hikage_bundle::{TextureData, TextureDesc, TextureFormat, bc};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
