@@ -471,7 +471,7 @@ fn sheet(dir: &Path, out: &Path, old: Option<&Path>) -> Result<(), Failure> {
     let open = |p: &Path| Bundle::open(p).with_context(|| format!("opening {}", p.display()));
     let bundle = open(dir)?;
     let old = old.map(open).transpose()?;
-    let report = hikage_bake::sheet::write_sheet(&bundle, old.as_ref(), out)
+    let report = hikage_bake::export::sheet::write_sheet(&bundle, old.as_ref(), out)
         .with_context(|| format!("writing the contact sheet of {} into {}", dir.display(), out.display()))?;
     out!(
         "{}: {} images, {:.2} MiB{}",

@@ -13,12 +13,12 @@
 //!   behind one [`Baker`] interface; [`horizon`], [`relief`], [`strands`] and [`curvature`] are
 //!   the algorithms they call, usable on their own.
 //! - [`export`] writes assets back out: textures as EXR or raw little-endian f32, meshes as
-//!   binary glTF.
+//!   binary glTF, a bundle as a contact sheet for review ([`export::sheet`]).
 //! - [`shard`] splits a pipeline over machines (`--shard K/N`) and merges the parts; [`cache`]
 //!   shares baked payloads between checkouts and machines by input hash; [`report`] says what a
 //!   run baked and why.
-//! - [`sheet`] draws a bundle's contact sheet for review; [`compression`] chooses each payload's
-//!   zstd level; [`mesh`] reads OBJ and glTF meshes; [`bc4`] encodes relief maps as BC4.
+//! - [`compression`] chooses each payload's zstd level; [`mesh`] reads OBJ and glTF meshes;
+//!   [`bc4`] encodes relief maps as BC4.
 //!
 //! The library never prints (except the `cargo::` lines a build script asks for, in
 //! [`build`]); progress goes to an [`run::Observer`].
@@ -47,7 +47,6 @@ pub mod report;
 pub mod run;
 pub mod shard;
 #[cfg(feature = "png")]
-pub mod sheet;
 pub mod strands;
 
 pub use compression::Compression;

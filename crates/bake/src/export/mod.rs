@@ -1,7 +1,9 @@
-//! Writing assets back out for other tools: textures as OpenEXR or raw little-endian f32
-//! ([`texture`]), meshes as binary glTF 2.0 ([`gltf`]).
+//! Writing assets back out for other tools and people: textures as OpenEXR or raw
+//! little-endian f32 ([`texture`]), meshes as binary glTF 2.0 ([`gltf`]), and a whole bundle as
+//! a contact sheet of pictures for review ([`sheet`]).
 
 pub mod gltf;
+pub mod sheet;
 pub mod texture;
 
 use std::io::Write;

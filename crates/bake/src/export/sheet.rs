@@ -400,7 +400,7 @@ fn cards(bundle: &Bundle) -> (Vec<Card>, std::collections::BTreeMap<Card, Vec<us
 /// ```no_run
 /// use hikage_bundle::Bundle;
 /// let bundle = Bundle::open("bundle".as_ref())?;
-/// let report = hikage_bake::sheet::write_sheet(&bundle, None, "sheet".as_ref())?;
+/// let report = hikage_bake::export::sheet::write_sheet(&bundle, None, "sheet".as_ref())?;
 /// println!("{}: {} images, {} bytes", report.page.display(), report.images, report.bytes);
 /// # Ok::<(), hikage_bake::BakeError>(())
 /// ```
