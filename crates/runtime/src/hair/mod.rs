@@ -22,17 +22,18 @@
 //! visibility = 1 − min(opacity, 1), read at the nearest texel or filtered over the 2×2 texels
 //! around the point ([`Lookup`]).
 
+mod frame;
 pub mod reference;
 mod renderer;
 mod skin;
+mod targets;
 
 use glam::camera::rh::proj::directx;
 use glam::camera::rh::view::look_to_mat4;
 use glam::{Mat4, Vec3};
 
-pub use renderer::{
-    AUTO_LOD_PIXELS, BlendWeight, HairFrame, HairLod, HairOptions, HairRenderer, HairStyle, HairUniform, Lod, Lookup,
-};
+pub use frame::{AUTO_LOD_PIXELS, BlendWeight, HairFrame, HairLod, HairOptions, HairStyle, HairUniform, Lod, Lookup};
+pub use renderer::HairRenderer;
 pub use skin::{HairSkin, SKIN_WORKGROUP};
 
 /// WGSL of the passes and of `hair_visibility` for receivers (see the module docs).
