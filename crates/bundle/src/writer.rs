@@ -365,28 +365,9 @@ impl BundleWriter {
     /// [`commit`](BundleWriter::commit), calling `waiting(lock file)` first when another
     /// writer holds the lock (so a command line can say why it pauses).
     pub fn commit_waiting(mut self, waiting: &dyn Fn(&Path)) -> Result<CommitSummary, BundleError> {
-        let lock_path = self.dir.join(LOCK_FILE);
-        let lock = open_lock_file(&lock_path)?;
-        match lock.try_lock() {
-            Ok(()) => {}
-            Err(fs::TryLockError::WouldBlock) => {
-                waiting(&lock_path);
-                lock.lock().map_err(|e| BundleError::io(&lock_path, e))?;
-            }
-            Err(fs::TryLockError::Error(e)) => return Err(BundleError::io(&lock_path, e)),
-        }
-
-        // 0. Whose bundle it is. A record is the owner's path relative to the bundle (or an
-        // absolute one, as older bundles hold).
-        if let Some((owner, take_over)) = &self.owner
-            && let Some(recorded) = read_owner(&self.dir).filter(|r| !same_file(&self.dir, r, owner))
-            && !take_over
-            && self.dir.join(&recorded).exists()
-        {
-            let (owner, writer) = (resolved(&self.dir, &recorded), resolved(&self.dir, owner));
-            return Err(BundleError::Owned { path: self.dir.clone(), owner, writer });
-        }
-
+        let _lock = self.lock(waiting)?;
+        // 0. Whose bundle it is.
+        self.check_owner()?;
         // 1. The manifest as it is now, with this writer's changes, checked as a reader will.
         let current = current_manifest(&self.dir, self.ignore_bad)?;
         let new = self.apply(current.as_ref());
@@ -397,43 +378,17 @@ impl BundleWriter {
                 return Err(BundleError::OverBudget { path: self.dir.clone(), overruns });
             }
         }
-
         // 2. Staged payloads recorded, then to their names, every payload the new manifest
         // names in place; 3. the manifest. On a failure the payloads moved in are taken out
         // again: the bundle stays as it was.
         let named_now: BTreeSet<String> = current.iter().flat_map(|m| m.files()).collect();
         self.stage_shared(&new, &named_now)?;
+        self.stage_tables(&tables)?;
         let new_files: BTreeSet<String> =
             new.assets.iter().map(|a| a.file.clone()).chain(tables.iter().map(|(name, _)| name.clone())).collect();
-        // Tile tables are staged like payloads, unless the same bytes are in place.
-        for (name, bytes) in &tables {
-            let in_place = || crate::files::read_limited(&self.dir.join(name), bytes.len() as u64, "tile table size");
-            if !self.staged.contains_key(name) && !in_place().is_ok_and(|b| b == *bytes) {
-                let temp = stage(&self.dir, &self.tag, name, bytes)?;
-                self.staged.insert(name.clone(), temp);
-            }
-        }
         let recorded = read_retired(&self.dir);
-        let mut retired = recorded.clone();
-        // Recorded before anything moves: what this commit places, and what the manifest it
-        // replaces names and the new one does not — so a commit killed after its rename leaves
-        // nothing no record names.
-        let placing = self.staged.keys().filter(|f| !named_now.contains(*f));
-        let retiring = named_now.difference(&new_files);
-        let pending: BTreeSet<String> = placing.chain(retiring).cloned().collect();
-        if !pending.is_subset(&retired) {
-            retired.extend(pending);
-            write_retired(&self.dir, &self.tag, &retired)?;
-        }
-        // The readers' lock exists before the manifest it guards, so every reader of it can lock;
-        // readers of a manifest from before it existed could not, so this commit keeps their
-        // payloads.
-        let readers_path = self.dir.join(READERS_LOCK_FILE);
-        let readers_lock_created = match fs::OpenOptions::new().write(true).create_new(true).open(&readers_path) {
-            Ok(_) => true,
-            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => false,
-            Err(e) => return Err(BundleError::io(&readers_path, e)),
-        };
+        let retired = self.record_pending(&named_now, &new_files, &recorded)?;
+        let readers_lock_created = self.create_readers_lock()?;
         let mut moved = Vec::new();
         let written = self.place_payloads(&new, &tables, &mut moved).and_then(|()| self.write_manifest(&text));
         let manifest_written = match written {
@@ -448,24 +403,123 @@ impl BundleWriter {
                 return Err(e);
             }
         };
+        self.record_owner();
+        // 4. Retired payloads, and what killed writers left.
+        let mut removed = self.remove_retired(&named_now, &new_files, &retired, readers_lock_created);
+        removed.extend(self.sweep_dead_writers());
+        removed.sort();
+        let shared = new
+            .assets
+            .iter()
+            .filter(|a| a.file != payload_file_name(&a.id, &a.blake3, a.payload.file_extension()))
+            .map(|a| (a.id.clone(), a.file.clone()))
+            .collect();
+        Ok(CommitSummary { manifest_written, removed, shared })
+    }
 
-        // Best effort: a record that cannot be written only weakens the next check.
+    /// The bundle's writer lock, held until dropped; `waiting(lock file)` is called first when
+    /// another writer holds it.
+    fn lock(&self, waiting: &dyn Fn(&Path)) -> Result<fs::File, BundleError> {
+        let lock_path = self.dir.join(LOCK_FILE);
+        let lock = open_lock_file(&lock_path)?;
+        match lock.try_lock() {
+            Ok(()) => {}
+            Err(fs::TryLockError::WouldBlock) => {
+                waiting(&lock_path);
+                lock.lock().map_err(|e| BundleError::io(&lock_path, e))?;
+            }
+            Err(fs::TryLockError::Error(e)) => return Err(BundleError::io(&lock_path, e)),
+        }
+        Ok(lock)
+    }
+
+    /// Refuses a bundle another pipeline owns (unless told to take it over). A record is the
+    /// owner's path relative to the bundle (or an absolute one, as older bundles hold).
+    fn check_owner(&self) -> Result<(), BundleError> {
+        if let Some((owner, take_over)) = &self.owner
+            && let Some(recorded) = read_owner(&self.dir).filter(|r| !same_file(&self.dir, r, owner))
+            && !take_over
+            && self.dir.join(&recorded).exists()
+        {
+            let (owner, writer) = (resolved(&self.dir, &recorded), resolved(&self.dir, owner));
+            return Err(BundleError::Owned { path: self.dir.clone(), owner, writer });
+        }
+        Ok(())
+    }
+
+    /// Stages the tile tables like payloads, unless the same bytes are in place.
+    fn stage_tables(&mut self, tables: &[(String, Vec<u8>)]) -> Result<(), BundleError> {
+        for (name, bytes) in tables {
+            let in_place = || crate::files::read_limited(&self.dir.join(name), bytes.len() as u64, "tile table size");
+            if !self.staged.contains_key(name) && !in_place().is_ok_and(|b| b == *bytes) {
+                let temp = stage(&self.dir, &self.tag, name, bytes)?;
+                self.staged.insert(name.clone(), temp);
+            }
+        }
+        Ok(())
+    }
+
+    /// Records, before anything moves, what this commit places and what the manifest it
+    /// replaces (naming `named_now`) names and the new one (naming `new_files`) does not — so a
+    /// commit killed after its rename leaves nothing no record names. Returns the record now
+    /// (`recorded` and those).
+    fn record_pending(
+        &self,
+        named_now: &BTreeSet<String>,
+        new_files: &BTreeSet<String>,
+        recorded: &BTreeSet<String>,
+    ) -> Result<BTreeSet<String>, BundleError> {
+        let mut retired = recorded.clone();
+        let placing = self.staged.keys().filter(|f| !named_now.contains(*f));
+        let retiring = named_now.difference(new_files);
+        let pending: BTreeSet<String> = placing.chain(retiring).cloned().collect();
+        if !pending.is_subset(&retired) {
+            retired.extend(pending);
+            write_retired(&self.dir, &self.tag, &retired)?;
+        }
+        Ok(retired)
+    }
+
+    /// Creates the readers' lock before the manifest it guards, so every reader of it can lock;
+    /// true when it did not exist (readers of a manifest from before could not lock, so this
+    /// commit keeps their payloads).
+    fn create_readers_lock(&self) -> Result<bool, BundleError> {
+        let readers_path = self.dir.join(READERS_LOCK_FILE);
+        match fs::OpenOptions::new().write(true).create_new(true).open(&readers_path) {
+            Ok(_) => Ok(true),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Ok(false),
+            Err(e) => Err(BundleError::io(&readers_path, e)),
+        }
+    }
+
+    /// Records this writer's pipeline as the bundle's owner. Best effort: a record that cannot
+    /// be written only weakens the next check.
+    fn record_owner(&self) {
         if let Some((owner, _)) = &self.owner
             && read_owner(&self.dir).as_ref() != Some(owner)
         {
             let _ = stage(&self.dir, &self.tag, OWNER_FILE, format!("{owner}\n").as_bytes())
                 .and_then(|temp| fs::rename(&temp, self.dir.join(OWNER_FILE)).map_err(|e| BundleError::io(&temp, e)));
         }
+    }
 
-        // 4. Retired payloads: the replaced manifest's at once when no reader can hold them,
-        // else one commit later; and what killed writers left. The commit has happened: a file
-        // that cannot be removed now stays recorded for the next one.
+    /// Removes the retired payloads: the replaced manifest's at once when no reader can hold
+    /// them (`readers_lock_created`: none could lock), else one commit later; and what the
+    /// record `retired` held from before. The commit has happened: a file that cannot be
+    /// removed now stays recorded for the next one. Returns the files removed.
+    fn remove_retired(
+        &mut self,
+        named_now: &BTreeSet<String>,
+        new_files: &BTreeSet<String>,
+        retired: &BTreeSet<String>,
+        readers_lock_created: bool,
+    ) -> Vec<String> {
         drop(self.reading.take());
-        let readers = crate::files::open_regular(&readers_path).ok();
+        let readers = crate::files::open_regular(&self.dir.join(READERS_LOCK_FILE)).ok();
         let no_reader = !readers_lock_created && readers.as_ref().is_some_and(|f| f.try_lock().is_ok());
         let mut stale: BTreeSet<String> = retired.iter().filter(|f| !named_now.contains(*f)).cloned().collect();
         let mut keep_recorded: BTreeSet<String> = BTreeSet::new();
-        for file in named_now.difference(&new_files) {
+        for file in named_now.difference(new_files) {
             if no_reader {
                 stale.insert(file.clone());
             } else {
@@ -483,19 +537,11 @@ impl BundleWriter {
             }
         }
         drop(readers);
-        if keep_recorded != retired {
+        if keep_recorded != *retired {
             // Best effort: a record that cannot be written is rewritten by the next commit.
             let _ = write_retired(&self.dir, &self.tag, &keep_recorded);
         }
-        removed.extend(self.sweep_dead_writers());
-        removed.sort();
-        let shared = new
-            .assets
-            .iter()
-            .filter(|a| a.file != payload_file_name(&a.id, &a.blake3, a.payload.file_extension()))
-            .map(|a| (a.id.clone(), a.file.clone()))
-            .collect();
-        Ok(CommitSummary { manifest_written, removed, shared })
+        removed
     }
 
     /// Makes every payload file `new` names available to place: staged, or in place and named
