@@ -25,12 +25,13 @@ mod stream;
 pub(crate) mod sun_field;
 mod surface;
 mod terrain;
+mod tile_data;
 mod tile_plan;
 
 use hikage_bundle::{EdgeMode, HorizonSettings, TextureFormat};
 
 pub use field_tiles::{FieldMap, FieldTileTextures, SunFieldTiles};
-pub use residency::{ResidencyFrame, TileReads, TileResidency, TileStore, check_budgets};
+pub use residency::{BudgetShortfall, ResidencyFrame, TileReads, TileResidency, TileStore, check_budgets};
 pub use stream::{MAX_TILE_SIDE, StreamOptions, StreamStats, TerrainStream};
 pub use sun_field::{
     FieldTerrain, MAX_SUN_FIELD_LEVELS, SUN_FIELD_UNIFORM_BYTES, SUN_FIELD_WGSL, SunField, SunFieldOptions,
@@ -38,10 +39,8 @@ pub use sun_field::{
 };
 pub use surface::{SurfaceFrame, SurfaceShadows, SurfaceUniform};
 pub use terrain::{Sun, TerrainExtent, TerrainFrame, TerrainShadows, TerrainUniform};
-pub use tile_plan::{
-    BudgetShortfall, MAX_PENDING_TILES, TileKey, TileLayout, TileLevel, TileParts, TilePlan, apron_neighbours,
-    heights_with_apron, tile_device_bytes, tile_unchanged,
-};
+pub use tile_data::{apron_neighbours, heights_with_apron, tile_device_bytes, tile_unchanged};
+pub use tile_plan::{MAX_PENDING_TILES, TileKey, TileLayout, TileLevel, TileParts, TilePlan};
 
 /// WGSL of the horizon functions (no bindings); include it in a shader module. The components
 /// prepend it to their own WGSL.

@@ -59,6 +59,80 @@ pub fn check_budgets(
     Ok(level_bytes)
 }
 
+/// A resident budget too small for a camera to draw the finest level it asks for under it
+/// ([`TileLayout::budget_shortfall`]): the stream still runs, holding the finest complete level
+/// the budget allows and asking for nothing finer. Its text says the budget that would do.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BudgetShortfall {
+    /// The map.
+    pub map: String,
+    /// The resident budget, bytes.
+    pub budget: u64,
+    /// What drawing `wanted_level` under the camera needs wherever it stands, bytes
+    /// ([`TileLayout::resident_bytes_needed`]).
+    pub needed: u64,
+    /// What holds every tile the camera asks for at `detail`, bytes
+    /// ([`TileLayout::resident_bytes_wanted`]).
+    pub wanted: u64,
+    /// The level asked for ([`StreamOptions::finest_level`](StreamOptions::finest_level)).
+    pub wanted_level: u32,
+    /// The finest level the budget holds under the camera.
+    pub reachable_level: u32,
+    /// Nodes a tile spans.
+    pub tile: u32,
+    /// The level-of-detail distance ([`StreamOptions::detail`](StreamOptions::detail)).
+    pub detail: f32,
+}
+
+impl std::fmt::Display for BudgetShortfall {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mib = |b: u64| b as f64 / (1 << 20) as f64;
+        write!(
+            f,
+            "map `{}`: a resident budget of {:.1} MiB holds level {} under the camera at most; level {} needs {:.1} MiB \
+             ({} bytes) for tiles of {}², and {:.1} MiB holds all that detail {} asks for: raise `resident_bytes`",
+            self.map,
+            mib(self.budget),
+            self.reachable_level,
+            self.wanted_level,
+            mib(self.needed),
+            self.needed,
+            self.tile,
+            mib(self.wanted),
+            self.detail
+        )
+    }
+}
+
+impl TileLayout {
+    /// `None` when `options.resident_bytes` lets a camera anywhere draw
+    /// [`StreamOptions::finest_level`](StreamOptions::finest_level) under it (tiles of
+    /// `bytes` each, [`TileLayout::resident_bytes_needed`]); otherwise what it needs, and the
+    /// finest level it holds.
+    pub fn budget_shortfall(&self, options: &StreamOptions, bytes: impl Fn(TileKey) -> u64) -> Option<BudgetShortfall> {
+        let needed = self.resident_bytes_needed(options, &bytes);
+        if needed <= options.resident_bytes {
+            return None;
+        }
+        let reachable_level = (options.finest_level + 1..=self.coarsest())
+            .find(|&finest_level| {
+                let coarser = StreamOptions { finest_level, ..*options };
+                self.resident_bytes_needed(&coarser, &bytes) <= options.resident_bytes
+            })
+            .unwrap_or(self.coarsest());
+        Some(BudgetShortfall {
+            map: self.map.clone(),
+            budget: options.resident_bytes,
+            needed,
+            wanted: self.resident_bytes_wanted(options, &bytes),
+            wanted_level: options.finest_level,
+            reachable_level,
+            tile: self.tile,
+            detail: options.detail,
+        })
+    }
+}
+
 /// How an engine reads its tiles (a thread, a task pool): a [`TileResidency`] asks for tiles and
 /// takes them as they finish.
 pub trait TileReads<L, E> {

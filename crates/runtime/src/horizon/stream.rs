@@ -11,13 +11,11 @@ use hikage_bundle::tiles::TileIndex;
 use hikage_bundle::{Asset, PayloadData, TextureData};
 
 use super::horizon_filterable;
-use super::residency::{TileReads, TileResidency, TileStore, check_budgets};
+use super::residency::{BudgetShortfall, TileReads, TileResidency, TileStore, check_budgets};
 use super::sun_field::{FieldTerrain, FieldTile, SunFieldSource};
 use super::terrain::{TerrainBinding, TerrainExtent, TerrainFrame, terrain_layout, terrain_program};
-use super::tile_plan::{
-    BudgetShortfall, TileKey, TileLayout, TileParts, apron_neighbours, heights_with_apron, tile_device_bytes,
-    tile_unchanged,
-};
+use super::tile_data::{apron_neighbours, heights_with_apron, tile_device_bytes, tile_unchanged};
+use super::tile_plan::{TileKey, TileLayout, TileParts};
 use crate::draw::DrawOptions;
 use crate::error::RuntimeError;
 use crate::gpu;
