@@ -80,8 +80,9 @@ struct ExtractedField {
     /// The map frame → world.
     model: Mat4,
     drawn: Vec<ExtractedPiece>,
-    sun: Sun,
-    eye: Vec3,
+    /// The sun and the camera; `None` in a frame without either (the field then keeps what it
+    /// holds).
+    view: Option<(Sun, Vec3)>,
 }
 
 /// A drawn tile as the render world finds it: its place, its images' ids and its constants.
@@ -110,7 +111,7 @@ struct RenderField {
 /// The render world's sun fields, by the main-world entity of their streamed terrain: what a
 /// [`FieldReceiverMaterial`]'s bind group reads (public only as the bind group's parameter).
 #[derive(Resource, Default)]
-pub struct RenderFields(HashMap<Entity, RenderField>);
+pub struct RenderFields(HashMap<Entity, RenderField>, std::collections::HashSet<(Entity, u64)>);
 
 /// The sun a terrain's shadows are drawn for: the scene's first `DirectionalLight` with shadow
 /// maps, else its first (by entity); its direction toward the light and its disc's radius.
@@ -141,9 +142,13 @@ fn extract(
     cameras: Extract<Query<(&Camera, &GlobalTransform), With<Camera3d>>>,
 ) {
     out.0.clear();
-    let Some(eye) = cameras.iter().find(|(c, _)| c.is_active).map(|(_, t)| t.translation()) else { return };
-    let Some((_, toward, radius)) = scene_sun(lights.iter()) else { return };
-    let sun = Sun { direction: toward, angular_radius: radius, ..Sun::default() };
+    let eye = cameras.iter().find(|(c, _)| c.is_active).map(|(_, t)| t.translation());
+    let sun = scene_sun(lights.iter()).map(|(_, toward, radius)| Sun {
+        direction: toward,
+        angular_radius: radius,
+        ..Sun::default()
+    });
+    let view = sun.zip(eye).map(|(sun, eye)| (sun, Vec3::new(eye.x, eye.y, eye.z)));
     let mut named: Vec<Entity> = receivers.iter().map(|r| r.terrain).collect();
     named.sort_unstable();
     named.dedup();
@@ -166,8 +171,7 @@ fn extract(
             map,
             model: Mat4::from_cols_array(&placed.to_matrix().to_cols_array()),
             drawn,
-            sun,
-            eye: Vec3::new(eye.x, eye.y, eye.z),
+            view,
         });
     }
 }
@@ -187,11 +191,19 @@ fn prepare(
         let fresh = fields.0.get(&e.terrain).is_none_or(|f| f.generation != e.generation || *f.tiles.map() != e.map);
         if fresh {
             let tiles = SunFieldTiles::new(device, queue, e.map);
-            let Ok(field) = SunField::new(device, &tiles, SunFieldOptions::default()) else {
-                fields.0.remove(&e.terrain);
-                continue;
-            };
-            fields.0.insert(e.terrain, RenderField { generation: e.generation, tiles, field });
+            match SunField::new(device, &tiles, SunFieldOptions::default()) {
+                Ok(field) => {
+                    fields.0.insert(e.terrain, RenderField { generation: e.generation, tiles, field });
+                }
+                Err(error) => {
+                    // Its receivers wait for a field (they are not drawn); said once per stream.
+                    if fields.1.insert((e.terrain, e.generation)) {
+                        bevy_log::error!("hikage: the sun field of terrain {}: {error}", e.terrain);
+                    }
+                    fields.0.remove(&e.terrain);
+                    continue;
+                }
+            }
         }
         let f = fields.0.get_mut(&e.terrain).expect("inserted above");
         // A tile whose images are not on the device yet is left out: coarser tiles answer there
@@ -206,9 +218,14 @@ fn prepare(
             })
         });
         f.tiles.set(device, queue, drawn);
-        let frame = TerrainFrame { model: e.model, sun: e.sun, ..TerrainFrame::default() };
+        let Some((sun, eye)) = e.view else { continue };
+        let frame = TerrainFrame { model: e.model, sun, ..TerrainFrame::default() };
         // A device that cannot hold the work keeps the last field.
-        let _ = f.field.update(device, queue, &f.tiles, &frame, e.eye);
+        if let Err(error) = f.field.update(device, queue, &f.tiles, &frame, eye)
+            && fields.1.insert((e.terrain, e.generation))
+        {
+            bevy_log::error!("hikage: the sun field of terrain {}: {error}", e.terrain);
+        }
     }
 }
 
