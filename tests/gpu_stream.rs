@@ -174,7 +174,7 @@ fn a_flight_keeps_its_budgets_and_always_has_terrain_underneath() {
     // occlusion: about 0.29 MiB. The flights over 8 MiB tiles at 64, 160 and 256 MiB
     // held 8, 20 and 32 tiles: the same here, in tiles of this map (5 levels: level 0 under the
     // camera needs the coarsest tile and four at each finer level, 17).
-    let index = hikage_runtime::hikage_bundle::tiles::TileIndex::open(&dir).unwrap();
+    let index = hikage_runtime::hikage_bundle::tile_index::TileIndex::open(&dir).unwrap();
     let parts = ["dem.height", "dem.horizon", "dem.ao"];
     let entries: Vec<_> = parts.iter().filter_map(|p| index.tile(p, 0, (0, 0))).collect();
     let tile = hikage_runtime::horizon::tile_device_bytes(&entries);
@@ -297,7 +297,7 @@ fn a_reload_reads_again_only_the_changed_tiles() {
     };
     let mut stream = TerrainStream::open(&g.device, &g.queue, &dir, "dem", &options(), stream_options).unwrap();
     settle(&mut stream, false);
-    let index = |dir: &std::path::Path| hikage_runtime::hikage_bundle::tiles::TileIndex::open(dir).unwrap();
+    let index = |dir: &std::path::Path| hikage_runtime::hikage_bundle::tile_index::TileIndex::open(dir).unwrap();
     let before = index(&dir);
 
     // Raise a 12×12-texel square by 40 m and bake again in place.
@@ -318,7 +318,7 @@ fn a_reload_reads_again_only_the_changed_tiles() {
     let after = index(&dir);
     // The tiles whose own payloads or whose neighbours' heights changed, of every level (with
     // level 0 wanted everywhere and room for all, the stream holds every tile of the pyramid).
-    let entry = |i: &hikage_runtime::hikage_bundle::tiles::TileIndex, part: &str, (l, x, y): (u32, u32, u32)| {
+    let entry = |i: &hikage_runtime::hikage_bundle::tile_index::TileIndex, part: &str, (l, x, y): (u32, u32, u32)| {
         i.tile(&format!("dem.{part}"), l, (x, y)).map(|a| a.blake3)
     };
     let held: Vec<(u32, u32, u32)> = (0..4u32)

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use hikage_runtime::glam::camera::rh::proj::directx;
 use hikage_runtime::glam::camera::rh::view::look_at_mat4;
 use hikage_runtime::glam::{Vec2, Vec3};
-use hikage_runtime::hikage_bundle::tiles::TileIndex;
+use hikage_runtime::hikage_bundle::tile_index::TileIndex;
 use hikage_runtime::horizon::reference::{HorizonMap, horizon_raised_sun_visible, horizon_sun_visible};
 use hikage_runtime::horizon::{
     FieldMap, FieldTileTextures, HorizonEncoding, StreamOptions, Sun, SunField, SunFieldOptions, SunFieldSource,

@@ -4,7 +4,7 @@
 //! the entries they were written from, a damaged table refused, 20,000 tiles opened and
 //! validated.
 
-use hikage_bundle::tiles::TileIndex;
+use hikage_bundle::tile_index::TileIndex;
 use hikage_bundle::{Bundle, BundleError, Manifest, Settings, TextureData};
 use hikage_devkit::tile_tables::{Parts, pyramid};
 

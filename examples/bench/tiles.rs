@@ -42,7 +42,7 @@ pub fn run() {
             best_of(5, || hikage_bundle::tiles::find_tile(&dir, &sets[0], "dem.horizon", 0, last).expect("reads"));
         assert!(tile.is_some());
         let (index_open, index) =
-            best_of(5, || hikage_bundle::tiles::TileIndex::open_with_limits(&dir, limits).expect("opens"));
+            best_of(5, || hikage_bundle::tile_index::TileIndex::open_with_limits(&dir, limits).expect("opens"));
         let (lookup, tile) = best_of(5, || index.tile("dem.horizon", 0, last));
         assert!(tile.is_some());
 

@@ -17,8 +17,7 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
-use crate::inspect::{AssetSummary, summarize};
-use crate::manifest::Manifest;
+use crate::manifest::{Asset, Manifest, disk_bytes};
 
 /// What a bundle may take, in bytes: as a whole, per job (the assets the job makes: its id, or
 /// ids starting `<id>.`) and per asset. Each figure is optional.
@@ -99,16 +98,15 @@ impl Budget {
     /// Every figure of `manifest` over this budget, the bundle's first, then each job's and
     /// asset's in id order. A job or asset the budget names and the bundle lacks counts as 0.
     pub fn overruns(&self, manifest: &Manifest) -> Vec<Overrun> {
-        let summary = summarize(manifest);
         let mut out = Vec::new();
-        let mut check = |scope: String, limit: Limit, assets: &[&AssetSummary]| {
-            let on_disk: fn(&AssetSummary) -> u64 = |a| a.byte_length;
-            let on_gpu: fn(&AssetSummary) -> u64 = |a| a.gpu_bytes;
+        let mut check = |scope: String, limit: Limit, assets: &[&Asset]| {
+            let on_disk: fn(&Asset) -> u64 = |a| a.byte_length;
+            let on_gpu: fn(&Asset) -> u64 = Asset::gpu_bytes;
             for (figure, budget, bytes) in [(Figure::Disk, limit.disk, on_disk), (Figure::Gpu, limit.gpu, on_gpu)] {
                 let Some(budget) = budget else { continue };
                 // A file shared by identical payloads is on disk once; each asset is uploaded.
                 let total = match figure {
-                    Figure::Disk => crate::inspect::disk_bytes(assets.iter().copied()),
+                    Figure::Disk => disk_bytes(assets.iter().map(|a| (a.file.as_str(), a.byte_length))),
                     Figure::Gpu => assets.iter().map(|a| bytes(a)).fold(0u64, u64::saturating_add),
                 };
                 if total > budget {
@@ -117,14 +115,15 @@ impl Budget {
                 }
             }
         };
-        let all: Vec<&AssetSummary> = summary.assets.iter().collect();
+        let mut all: Vec<&Asset> = manifest.assets.iter().collect();
+        all.sort_by(|a, b| a.id.cmp(&b.id));
         check("bundle".into(), Limit { disk: self.disk, gpu: self.gpu }, &all);
         for (job, limit) in &self.jobs {
-            let made: Vec<&AssetSummary> = all.iter().copied().filter(|a| made_by(&a.id, job)).collect();
+            let made: Vec<&Asset> = all.iter().copied().filter(|a| made_by(&a.id, job)).collect();
             check(format!("job `{job}`"), *limit, &made);
         }
         for (id, limit) in &self.assets {
-            let asset: Vec<&AssetSummary> = all.iter().copied().filter(|a| &a.id == id).collect();
+            let asset: Vec<&Asset> = all.iter().copied().filter(|a| &a.id == id).collect();
             check(format!("asset `{id}`"), *limit, &asset);
         }
         out

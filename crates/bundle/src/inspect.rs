@@ -71,23 +71,11 @@ pub struct Summary {
     pub gpu_bytes: u64,
 }
 
-/// Texels (or blocks) of every level, slice and layer of `t`, in bytes: what a device that
-/// samples the format holds.
-fn texture_gpu_bytes(t: &crate::TextureDesc) -> u64 {
-    t.total_bytes().unwrap_or(u64::MAX)
-}
-
 fn strand_sets(s: &StrandsSettings, points: u64) -> Vec<StrandSet> {
     [("shading", s.shading), ("opacity", s.opacity)]
         .into_iter()
         .map(|(name, (width, alpha))| StrandSet { name: name.into(), points, levels: s.levels.len(), width, alpha })
         .collect()
-}
-
-/// Bytes on disk of `assets`' payloads, a file shared by identical payloads counted once.
-pub fn disk_bytes<'a>(assets: impl Iterator<Item = &'a AssetSummary>) -> u64 {
-    let files: std::collections::BTreeMap<&str, u64> = assets.map(|a| (a.file.as_str(), a.byte_length)).collect();
-    files.values().fold(0u64, |sum, &b| sum.saturating_add(b))
 }
 
 /// Summarises a manifest.
@@ -106,7 +94,7 @@ pub fn summarize(manifest: &Manifest) -> Summary {
                     kind: a.kind.name().into(),
                     file: a.file.clone(),
                     byte_length: a.byte_length,
-                    gpu_bytes: texture_gpu_bytes(t),
+                    gpu_bytes: a.gpu_bytes(),
                     format: format!("{:?}", t.format),
                     dimensions: vec![t.width as u64, t.height as u64, t.depth as u64, t.layers as u64],
                     dimension: format!("{:?}", t.dimension),
@@ -124,10 +112,7 @@ pub fn summarize(manifest: &Manifest) -> Summary {
                         kind: a.kind.name().into(),
                         file: a.file.clone(),
                         byte_length: a.byte_length,
-                        gpu_bytes: match m.supercompression {
-                            crate::Supercompression::None => a.byte_length,
-                            crate::Supercompression::Zstd => m.buffer_bytes(),
-                        },
+                        gpu_bytes: a.gpu_bytes(),
                         format: "mesh".into(),
                         dimensions: vec![m.vertex_count as u64, indices],
                         dimension: "mesh".into(),
@@ -148,7 +133,7 @@ pub fn summarize(manifest: &Manifest) -> Summary {
     Summary {
         format: manifest.format.to_string(),
         generator: manifest.generator.clone(),
-        disk_bytes: disk_bytes(assets.iter()),
+        disk_bytes: crate::manifest::disk_bytes(assets.iter().map(|a| (a.file.as_str(), a.byte_length))),
         gpu_bytes: assets.iter().map(|a| a.gpu_bytes).sum(),
         assets,
     }

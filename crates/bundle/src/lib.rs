@@ -21,7 +21,7 @@
 //! Its modules, each named after what it holds:
 //!
 //! - the manifest and its parts: [`manifest`] (the schema), [`settings`] (each kind's
-//!   settings), [`tiles`] (a tiled map's tile table and [`tiles::TileIndex`], the reader both
+//!   settings), [`tiles`] (a tiled map's tile table), [`tile_index`] (the tile reader both
 //!   streams use), [`budget`] (a pipeline's byte budgets), [`files`] (reading and writing inside
 //!   a bundle);
 //! - payloads: [`texture`], [`ktx2_file`], [`zstd`], [`bc`] (BC4/BC5 blocks), [`mesh`],
@@ -55,6 +55,7 @@ pub mod relief;
 pub mod settings;
 pub mod strands;
 pub mod texture;
+pub mod tile_index;
 pub mod tiles;
 pub mod validate;
 mod version;

@@ -89,6 +89,28 @@ pub enum AssetKind {
     Mesh,
 }
 
+impl Settings {
+    /// The kind of asset these settings describe: each kind has its own settings, and generic
+    /// settings take the kind from the payload (a texture or a mesh).
+    pub fn kind(&self, payload: &Payload) -> AssetKind {
+        match self {
+            Settings::Generic => match payload {
+                Payload::Texture(_) => AssetKind::Texture,
+                Payload::Mesh(_) => AssetKind::Mesh,
+            },
+            Settings::Heightfield(_) => AssetKind::Heightfield,
+            Settings::Horizon(_) => AssetKind::Horizon,
+            Settings::AmbientOcclusion(_) => AssetKind::AmbientOcclusion,
+            Settings::Curvature(_) => AssetKind::Curvature,
+            Settings::Relief(_) => AssetKind::Relief,
+            Settings::MaxMip(_) => AssetKind::MaxMip,
+            Settings::Strands(_) => AssetKind::Strands,
+            Settings::HairBinding(_) => AssetKind::HairBinding,
+            Settings::Scalp(_) => AssetKind::Scalp,
+        }
+    }
+}
+
 impl AssetKind {
     /// True when assets of this kind carry a mesh payload; the others carry a texture.
     pub fn is_mesh(self) -> bool {
@@ -221,6 +243,28 @@ pub struct Asset {
     pub settings: Settings,
 }
 
+impl Asset {
+    /// Bytes the asset takes in GPU memory uploaded as stored: a texture's texels (or blocks)
+    /// over every level, slice and layer, after any supercompression is undone; a mesh's
+    /// streams and indices.
+    pub fn gpu_bytes(&self) -> u64 {
+        match &self.payload {
+            Payload::Texture(t) => t.total_bytes().unwrap_or(u64::MAX),
+            Payload::Mesh(m) => match m.supercompression {
+                crate::Supercompression::None => self.byte_length,
+                crate::Supercompression::Zstd => m.buffer_bytes(),
+            },
+        }
+    }
+}
+
+/// Bytes on disk of the payload files `(file, bytes)`, a file shared by identical payloads
+/// counted once.
+pub fn disk_bytes<'a>(files: impl Iterator<Item = (&'a str, u64)>) -> u64 {
+    let files: std::collections::BTreeMap<&str, u64> = files.collect();
+    files.values().fold(0u64, |sum, &b| sum.saturating_add(b))
+}
+
 /// How the payload file is laid out.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Payload {
@@ -309,7 +353,7 @@ impl Manifest {
     }
 
     /// The one reading of a manifest's tile tables, for [`Manifest::parse_with_tables`] and
-    /// [`crate::tiles::TileIndex`] alike: each table's name inside the bundle, its records
+    /// [`crate::tile_index::TileIndex`] alike: each table's name inside the bundle, its records
     /// counted with the plain assets against `limits.max_assets` (a limit error past it), its
     /// length checked before `read_table(set, length)` is asked for it, then its size, hash,
     /// header and records as the tile reader relies on them.

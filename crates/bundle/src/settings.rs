@@ -4,8 +4,6 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::manifest::{AssetKind, Payload};
-
 /// Settings an asset was baked with, by kind.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Settings {
@@ -32,26 +30,6 @@ pub enum Settings {
 }
 
 impl Settings {
-    /// The kind of asset these settings describe: each kind has its own settings, and generic
-    /// settings take the kind from the payload (a texture or a mesh).
-    pub fn kind(&self, payload: &Payload) -> AssetKind {
-        match self {
-            Settings::Generic => match payload {
-                Payload::Texture(_) => AssetKind::Texture,
-                Payload::Mesh(_) => AssetKind::Mesh,
-            },
-            Settings::Heightfield(_) => AssetKind::Heightfield,
-            Settings::Horizon(_) => AssetKind::Horizon,
-            Settings::AmbientOcclusion(_) => AssetKind::AmbientOcclusion,
-            Settings::Curvature(_) => AssetKind::Curvature,
-            Settings::Relief(_) => AssetKind::Relief,
-            Settings::MaxMip(_) => AssetKind::MaxMip,
-            Settings::Strands(_) => AssetKind::Strands,
-            Settings::HairBinding(_) => AssetKind::HairBinding,
-            Settings::Scalp(_) => AssetKind::Scalp,
-        }
-    }
-
     /// Ids of the other assets these settings name and a reader needs with them: a horizon's
     /// heightfield, an ambient-occlusion map's horizon, relief maps' max-mip pyramid, a hair
     /// binding's strands and scalp.

@@ -309,6 +309,21 @@ pub(crate) fn check(set: &TileSet, bytes: &[u8], max_records: u64) -> Result<(),
     check_records(set, bytes)
 }
 
+/// The first tile of each part of a set whose table `bytes` passed [`check`]: what stands for
+/// the rest of the part when checking it as a reader of the full manifest would (the tiles
+/// differ only in numbers `check` checked).
+pub(crate) fn first_tiles(set: &TileSet, bytes: &[u8]) -> Vec<Asset> {
+    let mut first: Vec<Option<Asset>> = vec![None; set.parts.len()];
+    // `check` said every record names a part of the set.
+    for r in bytes[HEADER_BYTES as usize..].chunks_exact(RECORD_BYTES as usize).map(read_record) {
+        let slot = &mut first[r.part as usize];
+        if slot.is_none() {
+            *slot = Some(expand(&set.parts[r.part as usize], &r));
+        }
+    }
+    first.into_iter().flatten().collect()
+}
+
 /// The tiles of a set whose table `bytes` passed [`check`], as assets, in the table's order.
 pub(crate) fn tile_assets<'a>(set: &'a TileSet, bytes: &'a [u8]) -> impl Iterator<Item = Asset> + 'a {
     // `check` said every record names a part of the set.
@@ -406,88 +421,6 @@ fn check_header(bytes: &[u8]) -> Result<(), String> {
     Ok(())
 }
 
-/// The tiles of a bundle's maps, found one at a time: what a game streaming a large terrain
-/// opens instead of [`crate::Bundle::open`], which lists every tile as an asset. Opening reads
-/// `bundle.ron` and each tile table whole (its size, BLAKE3 and every record's part checked),
-/// and builds an entry only for the tiles asked for.
-///
-/// ```no_run
-/// use hikage_bundle::tiles::TileIndex;
-/// let index = TileIndex::open("bundle".as_ref())?;
-/// // The heights of the tile at column 3, row 5 of level 1, and their texels.
-/// if let Some(tile) = index.tile("terrain.height", 1, (3, 5)) {
-///     let heights = index.read_texture(&tile)?;
-///     println!("{}×{} heights at {:?}", heights.desc.width, heights.desc.height, tile.settings.tile());
-/// }
-/// # Ok::<(), hikage_bundle::BundleError>(())
-/// ```
-#[derive(Clone, Debug)]
-pub struct TileIndex {
-    dir: std::path::PathBuf,
-    limits: crate::Limits,
-    sets: Vec<(TileSet, Vec<u8>)>,
-}
-
-impl TileIndex {
-    /// Opens the tile sets of the bundle in `dir` with the default [`crate::Limits`].
-    pub fn open(dir: &Path) -> Result<TileIndex, BundleError> {
-        TileIndex::open_with_limits(dir, crate::Limits::default())
-    }
-
-    /// Opens the tile sets of the bundle in `dir`: the manifest and tables within `limits`.
-    pub fn open_with_limits(dir: &Path, limits: crate::Limits) -> Result<TileIndex, BundleError> {
-        let path = dir.join(crate::MANIFEST_FILE);
-        let text = crate::files::read_limited(&path, limits.max_manifest_bytes, "manifest size")?;
-        let text = String::from_utf8_lossy(&text);
-        let read = &mut |set: &TileSet, length: u64| {
-            crate::files::read_in_bundle(&dir.join(&set.table), length, "tile table size")
-        };
-        let (_, sets) = crate::Manifest::read_tables(&text, &path, &limits, read)?;
-        for (set, bytes) in &sets {
-            // Each part as a reader of the full manifest checks it, its first tile standing for
-            // the rest (they differ only in numbers `read_tables` checked).
-            let mut first: Vec<Option<Asset>> = vec![None; set.parts.len()];
-            // `read_tables` said every record names a part of the set.
-            for r in bytes[HEADER_BYTES as usize..].chunks_exact(RECORD_BYTES as usize).map(read_record) {
-                let slot = &mut first[r.part as usize];
-                if slot.is_none() {
-                    *slot = Some(expand(&set.parts[r.part as usize], &r));
-                }
-            }
-            let mut manifest = crate::Manifest::new();
-            manifest.assets = first.into_iter().flatten().collect();
-            if let Some((asset, message)) = crate::bundle::manifest_problems(&manifest, &limits).into_iter().next() {
-                return Err(BundleError::InvalidAsset { path: path.clone(), asset, message });
-            }
-        }
-        Ok(TileIndex { dir: dir.to_path_buf(), limits, sets })
-    }
-
-    /// The tile sets, one per map baked in tiles, in map order.
-    pub fn sets(&self) -> impl Iterator<Item = &TileSet> {
-        self.sets.iter().map(|(set, _)| set)
-    }
-
-    /// The entry of the tile payload `part` (a tile's id less its suffix, e.g.
-    /// `terrain.horizon`) at `level`, column and row `index`; `None` when there is none.
-    pub fn tile(&self, part: &str, level: u32, index: (u32, u32)) -> Option<Asset> {
-        let id = tile_id(part, level, index);
-        self.sets.iter().find_map(|(set, bytes)| {
-            let records = &bytes[HEADER_BYTES as usize..];
-            let read = |i: u64| Ok(read_record(&records[(i * RECORD_BYTES) as usize..][..RECORD_BYTES as usize]));
-            // `open` checked every record's part.
-            search(set, &id, read, |_| ()).ok().flatten()
-        })
-    }
-
-    /// Reads and decodes a tile's texture (from [`TileIndex::tile`]), its size, BLAKE3 and
-    /// KTX2 header checked against the entry.
-    pub fn read_texture(&self, tile: &Asset) -> Result<crate::TextureData, BundleError> {
-        let bytes = crate::bundle::read_payload_in(&self.dir, tile, &self.limits)?;
-        crate::bundle::decode_texture(tile, &bytes, &self.dir.join(&tile.file), &self.limits)
-    }
-}
-
 /// One tile's entry, read from its map's table without reading the other records: the part
 /// named `part` (a tile's id less its suffix, e.g. `terrain.horizon`), at `level`, column and
 /// row `index`. `None` when the set has no such tile. The record is found by binary search on
@@ -530,6 +463,15 @@ pub fn find_tile(
         Ok(read_record(&buf))
     };
     search(set, &id, read, |i| bad(format!("record {i} names no part")))
+}
+
+/// The entry of tile `id` in `set`, whose table `bytes` (in memory) passed [`check`]; `None`
+/// when the set has no such tile.
+pub(crate) fn find_in_table(set: &TileSet, bytes: &[u8], id: &str) -> Option<Asset> {
+    let records = &bytes[HEADER_BYTES as usize..];
+    let read = |i: u64| Ok(read_record(&records[(i * RECORD_BYTES) as usize..][..RECORD_BYTES as usize]));
+    // `check` said every record names a part.
+    search(set, id, read, |_| ()).ok().flatten()
 }
 
 /// The entry of tile `id` in `set`, found by binary search on its records (sorted by id), each

@@ -330,7 +330,7 @@ fn a_rebake_reloads_only_the_changed_tiles() {
     let terrain = spawn(&mut app);
     assert!(app.update_until(2000, |w| settled(w, terrain)), "{:?}", stats(app.world(), terrain));
     let before_tiles = tiles(&mut app);
-    let index = |dir: &std::path::Path| hikage_runtime::hikage_bundle::tiles::TileIndex::open(dir).unwrap();
+    let index = |dir: &std::path::Path| hikage_runtime::hikage_bundle::tile_index::TileIndex::open(dir).unwrap();
     let before = index(&dir.join("bundle"));
 
     // Raise a 12×12-texel square by 40 m and bake again in place.
@@ -342,7 +342,7 @@ fn a_rebake_reloads_only_the_changed_tiles() {
     std::fs::write(&dem, heights.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>()).unwrap();
     hikage_bake::build::BuildScript::new(dir.join("pipeline.ron")).into_pipeline_output().run().unwrap();
     let after = index(&dir.join("bundle"));
-    let entry = |i: &hikage_runtime::hikage_bundle::tiles::TileIndex, part: &str, (l, x, y): (u32, u32, u32)| {
+    let entry = |i: &hikage_runtime::hikage_bundle::tile_index::TileIndex, part: &str, (l, x, y): (u32, u32, u32)| {
         i.tile(&format!("dem.{part}"), l, (x, y)).map(|a| a.blake3)
     };
     let changed: std::collections::BTreeSet<(u32, u32, u32)> = before_tiles

@@ -7,7 +7,7 @@ use std::path::Path;
 use std::sync::mpsc;
 
 use glam::{Mat4, Vec2, Vec3};
-use hikage_bundle::tiles::TileIndex;
+use hikage_bundle::tile_index::TileIndex;
 use hikage_bundle::{Asset, PayloadData, TextureData};
 
 use super::horizon_filterable;

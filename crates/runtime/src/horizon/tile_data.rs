@@ -24,8 +24,8 @@ pub fn tile_device_bytes(entries: &[Asset]) -> u64 {
 /// (before, after), alike in file and BLAKE3.
 ///
 /// ```no_run
-/// # fn f(layout: &hikage_runtime::horizon::TileLayout, before: &hikage_runtime::hikage_bundle::tiles::TileIndex,
-/// #      after: &hikage_runtime::hikage_bundle::tiles::TileIndex) {
+/// # fn f(layout: &hikage_runtime::horizon::TileLayout, before: &hikage_runtime::hikage_bundle::tile_index::TileIndex,
+/// #      after: &hikage_runtime::hikage_bundle::tile_index::TileIndex) {
 /// use hikage_runtime::horizon::tile_unchanged;
 ///
 /// let keep = tile_unchanged(&layout.parts, (0, 3, 5), |part, (level, x, y)| {

@@ -57,7 +57,7 @@ pub struct TileLevel {
 /// # fn f(dir: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
 /// use hikage_runtime::horizon::{StreamOptions, TileLayout};
 ///
-/// let index = hikage_runtime::hikage_bundle::tiles::TileIndex::open(dir)?;
+/// let index = hikage_runtime::hikage_bundle::tile_index::TileIndex::open(dir)?;
 /// let layout = TileLayout::new("terrain", |part, level, at| index.tile(part, level, at))?;
 /// // A camera at (1200, 800) in the map frame, nothing resident yet: the coarsest tiles first.
 /// let plan = layout.plan((1200.0, 800.0), &StreamOptions::default(), |_| false);
@@ -79,7 +79,7 @@ pub struct TileLayout {
 
 impl TileLayout {
     /// The layout of map `map`, from `tile(part, level, (x, y))`, which gives a tile's manifest
-    /// entry (`hikage_bundle::tiles::TileIndex::tile`, or a manifest's asset of that id). Each
+    /// entry (`hikage_bundle::tile_index::TileIndex::tile`, or a manifest's asset of that id). Each
     /// level's grid and texel size come from its tile `(0, 0)`; the levels end at the first
     /// level without one.
     pub fn new(map: &str, tile: impl Fn(&str, u32, (u32, u32)) -> Option<Asset>) -> Result<TileLayout, RuntimeError> {
