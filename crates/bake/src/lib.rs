@@ -46,7 +46,6 @@ pub mod relief;
 pub mod report;
 pub mod run;
 pub mod shard;
-#[cfg(feature = "png")]
 pub mod strands;
 
 pub use compression::Compression;

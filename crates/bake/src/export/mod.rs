@@ -3,6 +3,7 @@
 //! a contact sheet of pictures for review ([`sheet`]).
 
 pub mod gltf;
+#[cfg(feature = "png")]
 pub mod sheet;
 pub mod texture;
 
