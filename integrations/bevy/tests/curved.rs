@@ -46,7 +46,7 @@ fn curved_sphere_matches_the_cpu_reference() {
     let shadowed = app.capture(&target);
     let handle = app.world().get::<MeshMaterial3d<CurvedMaterial>>(surface).unwrap().0.clone();
     app.world().resource_mut::<Assets<CurvedMaterial>>().get_mut(&handle).unwrap().extension.uniform.test = 2;
-    let open = app.capture(&target);
+    let open = app.capture_settled(&target);
 
     let cpu = CpuBundle::read(&dir.join("bundle")).unwrap();
     let reference = SurfaceReference::new(&cpu, "cylinders.horizon", true).unwrap();

@@ -247,7 +247,7 @@ fn hair_maps_shadows_and_view_match_the_cpu_references() {
     app.world().spawn((Mesh3d(post), MeshMaterial3d(red), Transform::from_translation(1.4 * toward_eye)));
     let blended = app.capture(&target);
     app.world().entity_mut(hair).get_mut::<HairStrands>().unwrap().draw = HairDraw::ShadowsOnly;
-    let bare = app.capture(&target);
+    let bare = app.capture_settled(&target);
     let (mut behind, mut behind_ok, mut hidden, mut hidden_ok) = (0, 0, 0, 0);
     for (i, r) in reference.iter().enumerate() {
         if r[3] < 0.05 {

@@ -48,7 +48,7 @@ fn fitted_shadow_of_a_box_matches_a_ray_cast() {
     let cascades = &world.get::<Cascades>(light).unwrap().cascades;
     assert!(cascades.values().all(|c| c.len() == 1), "one map per view");
     world.get_mut::<DirectionalLight>(light).unwrap().shadow_maps_enabled = false;
-    let open = app.capture(&target);
+    let open = app.capture_settled(&target);
 
     let (mut checked, mut agree, mut dark, mut dark_found) = (0usize, 0usize, 0usize, 0usize);
     for row in 0..SIZE {

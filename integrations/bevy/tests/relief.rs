@@ -85,7 +85,7 @@ fn relief_hits_and_shadows_match_the_cpu_reference() {
     set(&mut app, 1);
     let shadowed = app.capture(&target);
     set(&mut app, 0);
-    let open = app.capture(&target);
+    let open = app.capture_settled(&target);
 
     let cpu = CpuBundle::read_prefix(&dir.join("bundle"), "relief_bricks.").unwrap();
     let maps = ReliefMaps::from_bundle(&cpu, "relief_bricks.relief").unwrap();

@@ -67,7 +67,7 @@ fn terrain_mask(name: &str, format: &str, on_device: TextureFormat) {
     assert_eq!(world.resource::<Assets<Image>>().get(handle).unwrap().texture_descriptor.format, on_device);
     let material = app.world().query::<&MeshMaterial3d<TerrainMaterial>>().single(app.world()).unwrap().0.clone();
     app.world().resource_mut::<Assets<TerrainMaterial>>().get_mut(&material).unwrap().extension.uniform.horizon = 0;
-    let open = app.capture(&target);
+    let open = app.capture_settled(&target);
 
     let cpu = CpuBundle::read_prefix(&dir.join("bundle"), "terrain.").unwrap();
     let asset = cpu.asset("terrain.horizon").unwrap();
