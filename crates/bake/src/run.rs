@@ -343,7 +343,7 @@ pub fn check_pipeline(path: &Path, observer: &dyn Observer) -> Result<PipelineCh
     if loaded.pipeline.budget != hikage_bundle::Budget::default()
         && let Ok(bundle) = hikage_bundle::Bundle::open(&out)
     {
-        let overruns = loaded.pipeline.budget.overruns(bundle.manifest());
+        let overruns = loaded.pipeline.budget.overruns(&bundle.manifest().weights());
         if !overruns.is_empty() {
             return Err(BakeError::Bundle(hikage_bundle::BundleError::OverBudget { path: out, overruns }));
         }

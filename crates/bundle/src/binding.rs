@@ -2,8 +2,8 @@
 //! the [`Scalp`] it names, written by the baker and read by the runtime's skinning pass and its
 //! CPU reference — one definition of both layouts.
 
+use crate::asset::{BINDING_STREAMS, SCALP_STREAMS};
 use crate::error::BundleError;
-use crate::manifest::{BINDING_STREAMS, SCALP_STREAMS};
 use crate::mesh::{ComponentType, MeshData, read_elements, read_uint};
 
 /// Where one strand is rooted: a scalp triangle and the barycentric weights of the surface

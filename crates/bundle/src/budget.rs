@@ -17,8 +17,6 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
-use crate::manifest::{Asset, Manifest, disk_bytes};
-
 /// What a bundle may take, in bytes: as a whole, per job (the assets the job makes: its id, or
 /// ids starting `<id>.`) and per asset. Each figure is optional.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -94,36 +92,51 @@ impl fmt::Display for Overrun {
     }
 }
 
+/// One asset as a budget weighs it: its id, the file it is stored in, and its bytes on disk and
+/// in GPU memory ([`crate::Asset::weight`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Weight<'a> {
+    /// The asset's id.
+    pub id: &'a str,
+    /// Its payload file: identical payloads share one, counted once on disk.
+    pub file: &'a str,
+    /// Bytes on disk.
+    pub disk: u64,
+    /// Bytes in GPU memory.
+    pub gpu: u64,
+}
+
 impl Budget {
-    /// Every figure of `manifest` over this budget, the bundle's first, then each job's and
-    /// asset's in id order. A job or asset the budget names and the bundle lacks counts as 0.
-    pub fn overruns(&self, manifest: &Manifest) -> Vec<Overrun> {
+    /// Every figure of a bundle's `assets` over this budget, the bundle's first, then each
+    /// job's and asset's in id order. A job or asset the budget names and the bundle lacks
+    /// counts as 0.
+    pub fn overruns(&self, assets: &[Weight<'_>]) -> Vec<Overrun> {
         let mut out = Vec::new();
-        let mut check = |scope: String, limit: Limit, assets: &[&Asset]| {
-            let on_disk: fn(&Asset) -> u64 = |a| a.byte_length;
-            let on_gpu: fn(&Asset) -> u64 = Asset::gpu_bytes;
+        let mut check = |scope: String, limit: Limit, assets: &[&Weight<'_>]| {
+            let on_disk: fn(&Weight<'_>) -> u64 = |a| a.disk;
+            let on_gpu: fn(&Weight<'_>) -> u64 = |a| a.gpu;
             for (figure, budget, bytes) in [(Figure::Disk, limit.disk, on_disk), (Figure::Gpu, limit.gpu, on_gpu)] {
                 let Some(budget) = budget else { continue };
                 // A file shared by identical payloads is on disk once; each asset is uploaded.
                 let total = match figure {
-                    Figure::Disk => disk_bytes(assets.iter().map(|a| (a.file.as_str(), a.byte_length))),
+                    Figure::Disk => disk_bytes(assets.iter().map(|a| (a.file, a.disk))),
                     Figure::Gpu => assets.iter().map(|a| bytes(a)).fold(0u64, u64::saturating_add),
                 };
                 if total > budget {
-                    let largest = assets.iter().max_by_key(|a| bytes(a)).map(|a| (a.id.clone(), bytes(a)));
+                    let largest = assets.iter().max_by_key(|a| bytes(a)).map(|a| (a.id.to_string(), bytes(a)));
                     out.push(Overrun { scope: scope.clone(), figure, bytes: total, budget, largest });
                 }
             }
         };
-        let mut all: Vec<&Asset> = manifest.assets.iter().collect();
-        all.sort_by(|a, b| a.id.cmp(&b.id));
+        let mut all: Vec<&Weight<'_>> = assets.iter().collect();
+        all.sort_by(|a, b| a.id.cmp(b.id));
         check("bundle".into(), Limit { disk: self.disk, gpu: self.gpu }, &all);
         for (job, limit) in &self.jobs {
-            let made: Vec<&Asset> = all.iter().copied().filter(|a| made_by(&a.id, job)).collect();
+            let made: Vec<&Weight<'_>> = all.iter().copied().filter(|a| made_by(a.id, job)).collect();
             check(format!("job `{job}`"), *limit, &made);
         }
         for (id, limit) in &self.assets {
-            let asset: Vec<&Asset> = all.iter().copied().filter(|a| &a.id == id).collect();
+            let asset: Vec<&Weight<'_>> = all.iter().copied().filter(|a| a.id == id).collect();
             check(format!("asset `{id}`"), *limit, &asset);
         }
         out
@@ -135,10 +148,18 @@ pub fn made_by(id: &str, job: &str) -> bool {
     id.strip_prefix(job).is_some_and(|rest| rest.is_empty() || rest.starts_with('.'))
 }
 
+/// Bytes on disk of the payload files `(file, bytes)`, a file shared by identical payloads
+/// counted once.
+pub fn disk_bytes<'a>(files: impl Iterator<Item = (&'a str, u64)>) -> u64 {
+    let files: std::collections::BTreeMap<&str, u64> = files.collect();
+    files.values().fold(0u64, |sum, &b| sum.saturating_add(b))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::manifest::{Asset, AssetKind, Payload};
+    use crate::asset::{Asset, AssetKind, Payload};
+    use crate::manifest::Manifest;
     use crate::settings::Settings;
     use crate::texture::{Supercompression, TextureDesc, TextureDimension, TextureFormat};
 
@@ -171,7 +192,7 @@ mod tests {
         // GPU bytes: 100², 10², 20² one-byte texels.
         m.assets = vec![texture("a.big", 100, 900), texture("a.small", 10, 50), texture("b", 20, 300)];
         let none = Budget::default();
-        assert!(none.overruns(&m).is_empty());
+        assert!(none.overruns(&m.weights()).is_empty());
         let budget = Budget {
             disk: Some(1_249),
             gpu: Some(10_500),
@@ -180,7 +201,7 @@ mod tests {
         };
         // The bundle's disk bytes one over; its GPU bytes (10,500) and job `a`'s figures (950 on
         // disk, 10,100 in GPU memory) exactly at their budgets, which is within them.
-        let found: Vec<String> = budget.overruns(&m).iter().map(ToString::to_string).collect();
+        let found: Vec<String> = budget.overruns(&m.weights()).iter().map(ToString::to_string).collect();
         assert_eq!(
             found,
             [
@@ -192,7 +213,7 @@ mod tests {
         let tight =
             Budget { jobs: BTreeMap::from([("a".into(), Limit { disk: Some(949), gpu: None })]), ..Budget::default() };
         assert_eq!(
-            tight.overruns(&m)[0].to_string(),
+            tight.overruns(&m.weights())[0].to_string(),
             "job `a`: 950 bytes on disk, over its budget of 949 (largest: `a.big`, 900 bytes)"
         );
         assert!(made_by("a.big", "a") && made_by("a", "a") && !made_by("ab", "a"));

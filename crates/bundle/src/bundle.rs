@@ -4,10 +4,11 @@ use std::fs;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use crate::asset::{Asset, AssetKind, Payload};
 use crate::error::BundleError;
 use crate::files::read_limited;
 use crate::limits::Limits;
-use crate::manifest::{Asset, AssetKind, MANIFEST_FILE, Manifest, Payload};
+use crate::manifest::{MANIFEST_FILE, Manifest};
 use crate::mesh::{MeshData, MeshDesc};
 use crate::names::{check_asset_id, is_safe_file_name};
 use crate::settings::Settings;

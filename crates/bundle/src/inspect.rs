@@ -2,7 +2,8 @@
 
 use serde::Serialize;
 
-use crate::manifest::{Manifest, Payload};
+use crate::asset::Payload;
+use crate::manifest::Manifest;
 use crate::settings::{Settings, StrandsSettings};
 
 /// One asset as `hikage inspect` shows it.
@@ -133,7 +134,7 @@ pub fn summarize(manifest: &Manifest) -> Summary {
     Summary {
         format: manifest.format.to_string(),
         generator: manifest.generator.clone(),
-        disk_bytes: crate::manifest::disk_bytes(assets.iter().map(|a| (a.file.as_str(), a.byte_length))),
+        disk_bytes: crate::budget::disk_bytes(assets.iter().map(|a| (a.file.as_str(), a.byte_length))),
         gpu_bytes: assets.iter().map(|a| a.gpu_bytes).sum(),
         assets,
     }

@@ -20,10 +20,10 @@
 //!
 //! Its modules, each named after what it holds:
 //!
-//! - the manifest and its parts: [`manifest`] (the schema), [`settings`] (each kind's
-//!   settings), [`tiles`] (a tiled map's tile table), [`tile_index`] (the tile reader both
-//!   streams use), [`budget`] (a pipeline's byte budgets), [`files`] (reading and writing inside
-//!   a bundle);
+//! - the manifest and its parts: [`manifest`] (the schema), [`asset`] (one asset: its kind,
+//!   payload layout and streams), [`settings`] (each kind's settings), [`tiles`] (a tiled map's
+//!   tile table), [`tile_index`] (the tile reader both streams use), [`budget`] (a pipeline's
+//!   byte budgets), [`files`] (reading and writing inside a bundle);
 //! - payloads: [`texture`], [`ktx2_file`], [`zstd`], [`bc`] (BC4/BC5 blocks), [`mesh`],
 //!   [`strands`], [`binding`] (hair bound to a skinned scalp), [`relief`] (the max-mip pyramid);
 //! - reading back: [`validate`](mod@validate), [`inspect`] (sizes on disk and on the GPU),
@@ -37,6 +37,7 @@
 //! # Ok::<(), hikage_bundle::BundleError>(())
 //! ```
 
+pub mod asset;
 pub mod bc;
 pub mod binding;
 pub mod budget;
@@ -62,15 +63,16 @@ mod version;
 mod writer;
 pub mod zstd;
 
+pub use asset::{
+    Asset, AssetKind, BINDING_STREAMS, CURVATURE_STREAMS, Payload, SCALP_STREAMS, STRANDS_RECORD_BYTES,
+    STRANDS_STREAMS, Stream,
+};
 pub use binding::{Scalp, StrandBinding};
-pub use budget::{Budget, Limit as BudgetLimit};
+pub use budget::{Budget, Limit as BudgetLimit, Weight};
 pub use bundle::{Bundle, READERS_LOCK_FILE, decode_mesh};
 pub use error::BundleError;
 pub use limits::Limits;
-pub use manifest::{
-    Asset, AssetKind, BINDING_STREAMS, CURVATURE_STREAMS, MANIFEST_FILE, Manifest, Payload, SCALP_STREAMS,
-    STRANDS_RECORD_BYTES, STRANDS_STREAMS, Stream,
-};
+pub use manifest::{MANIFEST_FILE, Manifest};
 pub use mesh::{Accessor, ComponentType, MAX_VERTEX_STRIDE, MeshData, MeshDesc, VertexFetch};
 pub use names::{check_asset_id, is_payload_file_of, is_valid_asset_id, payload_file_name};
 pub use settings::{

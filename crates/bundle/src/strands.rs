@@ -2,7 +2,7 @@
 //! runtime's shaders and CPU reference: one definition of the encoding (octahedral tangents,
 //! unorm widths and opacities, sRGB colour bytes) on both sides.
 
-use crate::manifest::{STRANDS_RECORD_BYTES, STRANDS_STREAMS};
+use crate::asset::{STRANDS_RECORD_BYTES, STRANDS_STREAMS};
 use crate::mesh::{Accessor, MeshData, MeshDesc};
 use crate::settings::StrandsSettings;
 

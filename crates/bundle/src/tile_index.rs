@@ -4,8 +4,8 @@
 
 use std::path::Path;
 
+use crate::asset::Asset;
 use crate::error::BundleError;
-use crate::manifest::Asset;
 use crate::tiles::{TileSet, find_in_table, tile_id};
 
 /// The tiles of a bundle's maps, found one at a time: what a game streaming a large terrain

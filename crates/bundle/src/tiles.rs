@@ -39,8 +39,8 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::asset::{Asset, Payload};
 use crate::error::BundleError;
-use crate::manifest::{Asset, Payload};
 use crate::names::payload_file_name;
 use crate::settings::{AmbientOcclusionSettings, HeightfieldSettings, HorizonSettings, Settings, TilePlacement};
 use crate::texture::TextureDesc;

@@ -4,11 +4,11 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
+use crate::asset::{Asset, Payload};
 use crate::bundle::Bundle;
 pub use crate::bundle::manifest_problems;
 use crate::error::BundleError;
 use crate::limits::Limits;
-use crate::manifest::{Asset, Payload};
 use crate::mesh::{ComponentType, MeshDesc, read_elements, read_uint};
 use crate::texture::TextureData;
 
@@ -97,7 +97,7 @@ pub fn validate_with_limits(dir: &Path, limits: Limits) -> Result<Report, Bundle
         }
     }
     if let Some(budget) = &bundle.manifest().budget {
-        report.over_budget = budget.overruns(bundle.manifest());
+        report.over_budget = budget.overruns(&bundle.manifest().weights());
     }
     Ok(report)
 }

@@ -22,7 +22,7 @@ impl BundleWriter {
         let new = self.apply(current.as_ref());
         let (text, tables) = checked_manifest_text(&self.dir, &new)?;
         if let Some(budget) = &new.budget {
-            let overruns = budget.overruns(&new);
+            let overruns = budget.overruns(&new.weights());
             if !overruns.is_empty() {
                 return Err(BundleError::OverBudget { path: self.dir.clone(), overruns });
             }

@@ -40,10 +40,11 @@ use std::fs;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+use crate::asset::{Asset, Payload};
 use crate::bundle::{Bundle, READERS_LOCK_FILE, manifest_problems, reader_lock};
 use crate::error::BundleError;
 use crate::limits::Limits;
-use crate::manifest::{Asset, MANIFEST_FILE, Manifest, Payload};
+use crate::manifest::{MANIFEST_FILE, Manifest};
 use crate::mesh::MeshData;
 use crate::names::{check_asset_id, is_payload_file_of, looks_like_payload, payload_file_name};
 use crate::settings::Settings;
