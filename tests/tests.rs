@@ -4,6 +4,7 @@ mod util;
 
 mod bad_input;
 mod bake;
+mod build_reuse;
 mod build_script;
 mod cache;
 mod concurrency;
