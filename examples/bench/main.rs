@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! cargo run --release --example bench              # every table
-//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load, size, tiles, pyramid, stream, raised, field, fourier, bc
+//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load, size, tiles, tile-cost, pyramid, stream, raised, field, fourier, bc
 //! cargo run --release --example bench -- scale     # tiled bakes: ~40 min, ~50 GiB of disk
 //! cargo run --release --example bench -- pyramid-scale   # a 16384² pyramid: ~20 min, ~8 GiB
 //! cargo run --release --example bench -- build-script   # clean builds of a game crate: ~15 min
@@ -28,6 +28,7 @@ mod relief;
 mod scale;
 mod size;
 mod stream;
+mod tile_cost;
 mod tiles;
 
 use std::time::Instant;
@@ -131,6 +132,9 @@ fn main() {
     }
     if wanted("tiles") {
         tiles::run();
+    }
+    if wanted("tile-cost") {
+        tile_cost::run();
     }
     if wanted("fourier") {
         fourier::run();

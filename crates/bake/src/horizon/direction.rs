@@ -7,7 +7,7 @@
 use hikage_bundle::EdgeMode;
 
 use super::encode::{self, HorizonFormat, rg8};
-use super::grid::{Frame, Grid, Orientation};
+use super::grid::{Frame, Grid, Orientation, Region};
 use super::near::split;
 use super::steps::Steps;
 use super::{HorizonParams, near, sweep};
@@ -32,6 +32,8 @@ pub(super) struct Direction<'a> {
     distance_scale: f32,
     /// Where the grid lies in the map.
     frame: Frame,
+    /// The texels computed; the rest of the output is left as it is.
+    region: Region,
     /// Rays stop at the map's edges (clamp) rather than continue on the torus.
     clamped: bool,
     /// Reach in columns (real for traces, whole columns for the sweep); `None`: to the edge.
@@ -89,6 +91,7 @@ impl<'a> Direction<'a> {
             format: params.format.working(),
             distance_scale,
             frame,
+            region: Region::whole(g.w, g.h),
             clamped: params.edge == EdgeMode::Clamp,
             reach,
             near_cols,
@@ -98,6 +101,14 @@ impl<'a> Direction<'a> {
             line_rows,
             texel_bytes: params.format.working().texture_format().texel_bytes(),
         }
+    }
+
+    /// Computes only the texels of `region` (a tile inside its window of heights): its rows,
+    /// and only the sweep lines that cross it, from a block of the reach beyond it.
+    pub(super) fn within(mut self, region: Region) -> Direction<'a> {
+        debug_assert!(region.cols.end <= self.g.w && region.rows.end <= self.g.h && !region.cols.is_empty());
+        self.region = region;
+        self
     }
 
     /// Both passes, into `out` (the direction's slice, original layout).
@@ -142,6 +153,7 @@ impl<'a> Direction<'a> {
     /// encoded into `out` a row at a time.
     fn near_pass(&self, out: &mut [u8]) {
         let (g, texel_bytes) = (self.g, self.texel_bytes);
+        let Region { cols, rows } = self.region.clone();
         let taps = near::stencil(self.m, self.steps.step_len, self.near_reach);
         let near_f = self.near_cols as f64;
         let end = self.end;
@@ -149,13 +161,14 @@ impl<'a> Direction<'a> {
         let mut best_t = vec![0.0f32; g.w];
         // A transposed orientation's rows are columns of the output: they are encoded into a tile
         // of TILE rows first and written out a column run at a time, not a texel per cache line.
-        let mut tile = vec![0u8; if self.orientation.transpose { TILE * g.w * texel_bytes } else { 0 }];
+        let row_bytes = cols.len() * texel_bytes;
+        let mut tile = vec![0u8; if self.orientation.transpose { TILE * row_bytes } else { 0 }];
         let mut halves = Vec::new();
-        for row in 0..g.h {
-            near::row(g, &taps, row, &mut best_s, &mut best_t);
+        for row in rows.clone() {
+            near::row(g, &taps, row, cols.clone(), &mut best_s, &mut best_t);
             let exit = self.exit(row);
             if end > near_f {
-                for col in 0..g.w {
+                for col in cols.clone() {
                     let mut best = (best_s[col], best_t[col]);
                     if self.traced(exit, col) {
                         steeper(&mut best, self.trace(row, col, near_f, end.min(exit)));
@@ -170,24 +183,25 @@ impl<'a> Direction<'a> {
             }
             // The row's texels are consecutive in the tile, or in the output (right to left when
             // the orientation mirrors columns).
-            let row_bytes = g.w * texel_bytes;
             let reversed = tile.is_empty() && self.orientation.flip;
+            let in_tile = (row - rows.start) % TILE;
             let dst = if tile.is_empty() {
-                let o = self.at(0, row).min(self.at(g.w - 1, row));
+                let o = self.at(cols.start, row).min(self.at(cols.end - 1, row));
                 &mut out[o..o + row_bytes]
             } else {
-                &mut tile[(row % TILE) * row_bytes..][..row_bytes]
+                &mut tile[in_tile * row_bytes..][..row_bytes]
             };
-            encode::encode_row(self.format, &mut best_s, &mut best_t, self.distance_scale, dst, reversed, &mut halves);
-            if !tile.is_empty() && (row % TILE == TILE - 1 || row + 1 == g.h) {
-                let first = row - row % TILE;
+            let (s, t) = (&mut best_s[cols.clone()], &mut best_t[cols.clone()]);
+            encode::encode_row(self.format, s, t, self.distance_scale, dst, reversed, &mut halves);
+            if !tile.is_empty() && (in_tile == TILE - 1 || row + 1 == rows.end) {
+                let first = row - in_tile;
                 // (col, first + k) is `k` texels after (col, first) in the output.
                 let untile = match self.format {
                     HorizonFormat::Rg8Unorm => untile::<2>,
                     HorizonFormat::Rg16Float => untile::<4>,
                     HorizonFormat::Rg32Float | HorizonFormat::Bc5RgUnorm => untile::<8>,
                 };
-                untile(&tile, g.w, row + 1 - first, out, &|col| self.at(col, first));
+                untile(&tile, cols.len(), in_tile + 1, out, &|i| self.at(cols.start + i, first));
             }
         }
     }
@@ -210,6 +224,7 @@ impl<'a> Direction<'a> {
             wrap: self.frame.torus,
             col0: self.frame.col0,
             restart: usize::try_from(self.frame.map_w as i64 - 1 - self.frame.col0).unwrap_or(usize::MAX),
+            region: &self.region,
         };
         // Axis and diagonal directions: every crossing of a ray is a column crossing and the line
         // through a texel is its ray, so the hull's tangent is already the exact answer.
@@ -219,8 +234,9 @@ impl<'a> Direction<'a> {
         // a row apart in the output, which a power-of-two width maps to few cache sets.
         let out_addr = out.as_ptr() as usize;
         let fetch_texel = |row: usize, col: usize| prefetch(out_addr + self.at(col, row));
+        let Region { cols, rows } = &self.region;
         let mut finish = |row: usize, col: usize, hits: [Option<sweep::Hit>; 2]| {
-            if self.traced(self.exit(row), col) {
+            if !rows.contains(&row) || !cols.contains(&col) || self.traced(self.exit(row), col) {
                 return;
             }
             let mut best = (f32::NEG_INFINITY, 0.0);
@@ -292,7 +308,8 @@ fn steeper(best: &mut (f32, f32), c: Option<(f32, f32)>) {
 }
 
 /// Writes the first `rows` rows of a transposed orientation's `tile` (rows of `w` texels of `B`
-/// bytes) to `out`, where texel `k` of column `col` goes `k` texels after `start(col)`. The texel
+/// bytes) to `out`, where texel `k` of the tile's column `col` goes `k` texels after
+/// `start(col)`. The texel
 /// size is a constant so that each texel is a move, not a call to `memmove`.
 fn untile<const B: usize>(tile: &[u8], w: usize, rows: usize, out: &mut [u8], start: &dyn Fn(usize) -> usize) {
     for col in 0..w {

@@ -1,6 +1,8 @@
 //! Canonical orientation: every azimuth is handled as a ray stepping one column to the right
 //! per step and `m ∈ [-1, 1]` rows, on a transposed and/or mirrored copy of the heightfield.
 
+use std::ops::Range;
+
 /// Height used outside a clamped map: far below anything real, yet finite so that
 /// `a + 0 · (OUTSIDE - a)` stays `a`.
 pub(crate) const OUTSIDE: f32 = -1.0e30;
@@ -95,6 +97,30 @@ impl Frame {
     }
 }
 
+/// The texels of a grid a bake computes, in canonical orientation: every texel of a whole map,
+/// or a tile's inside the window of heights around it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct Region {
+    pub cols: Range<usize>,
+    pub rows: Range<usize>,
+}
+
+impl Region {
+    /// Every texel of a `w`×`h` canonical grid.
+    pub fn whole(w: usize, h: usize) -> Region {
+        Region { cols: 0..w, rows: 0..h }
+    }
+
+    /// In orientation `o`, the `tile` = (column, row, width, height) of a window of `size` =
+    /// (width, height) texels, both in the original layout.
+    pub fn tile(o: Orientation, size: (usize, usize), tile: (usize, usize, usize, usize)) -> Region {
+        let (x, y, w, h) = tile;
+        let (c, cw, r, rh, gw) = if o.transpose { (y, h, x, w, size.1) } else { (x, w, y, h, size.0) };
+        let c = if o.flip { gw - (c + cw) } else { c };
+        Region { cols: c..c + cw, rows: r..r + rh }
+    }
+}
+
 /// How a canonical grid maps to the original: `transpose` swaps `u` and `v`, then `flip`
 /// mirrors the (new) columns.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -177,6 +203,26 @@ mod tests {
     fn index_is_the_position_in_all() {
         for (i, o) in Orientation::ALL.into_iter().enumerate() {
             assert_eq!(o.index(), i, "{o:?}");
+        }
+    }
+
+    #[test]
+    fn a_tiles_region_is_its_texels_in_every_orientation() {
+        // A 3×2 tile at (4, 1) of a 9×5 window: the region's canonical texels, mapped back, are
+        // exactly the tile's.
+        let (size, tile) = ((9usize, 5usize), (4usize, 1usize, 3usize, 2usize));
+        let mut want: Vec<usize> =
+            (tile.1..tile.1 + tile.3).flat_map(|y| (tile.0..tile.0 + tile.2).map(move |x| y * size.0 + x)).collect();
+        want.sort();
+        for o in Orientation::ALL {
+            let region = Region::tile(o, size, tile);
+            let mut got: Vec<usize> = region
+                .rows
+                .clone()
+                .flat_map(|row| region.cols.clone().map(move |col| o.original(size.0, size.1, col, row)))
+                .collect();
+            got.sort();
+            assert_eq!(got, want, "{o:?}");
         }
     }
 

@@ -9,6 +9,8 @@
 //!
 //! Cost: `O(N · K · (1 + |m|))` per direction, `O(W + H)` extra memory beyond the padded grid.
 
+use std::ops::Range;
+
 use super::grid::Grid;
 
 /// One crossing of the stencil: `lerp(A, B, f)` with `A` at (row + `ra`, col + `ca`) and `B` at
@@ -58,24 +60,25 @@ pub(crate) fn stencil(m: f64, step_len: f64, reach: f64) -> Vec<Tap> {
     taps
 }
 
-/// Applies the stencil to canonical row `row`: `best_s`/`best_t` receive, per texel, the
-/// greatest slope over the taps and the distance where it occurs.
-pub(crate) fn row(g: &Grid, taps: &[Tap], row: usize, best_s: &mut [f32], best_t: &mut [f32]) {
+/// Applies the stencil to the texels `cols` of canonical row `row`: `best_s`/`best_t` receive,
+/// per texel, the greatest slope over the taps and the distance where it occurs. A texel's
+/// result does not depend on which others are computed with it.
+pub(crate) fn row(g: &Grid, taps: &[Tap], row: usize, cols: Range<usize>, best_s: &mut [f32], best_t: &mut [f32]) {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2, checked just above.
-            unsafe { row_avx2(g, taps, row, best_s, best_t) };
+            unsafe { row_avx2(g, taps, row, cols, best_s, best_t) };
             return;
         }
     }
-    row_generic(g, taps, row, best_s, best_t);
+    row_generic(g, taps, row, cols, best_s, best_t);
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn row_avx2(g: &Grid, taps: &[Tap], row: usize, best_s: &mut [f32], best_t: &mut [f32]) {
-    row_generic(g, taps, row, best_s, best_t);
+unsafe fn row_avx2(g: &Grid, taps: &[Tap], row: usize, cols: Range<usize>, best_s: &mut [f32], best_t: &mut [f32]) {
+    row_generic(g, taps, row, cols, best_s, best_t);
 }
 
 /// Texels of a row whose best values stay in registers while every tap is applied to them: with
@@ -83,13 +86,13 @@ unsafe fn row_avx2(g: &Grid, taps: &[Tap], row: usize, best_s: &mut [f32], best_
 const CHUNK: usize = 16;
 
 #[inline(always)]
-fn row_generic(g: &Grid, taps: &[Tap], row: usize, best_s: &mut [f32], best_t: &mut [f32]) {
+fn row_generic(g: &Grid, taps: &[Tap], row: usize, cols: Range<usize>, best_s: &mut [f32], best_t: &mut [f32]) {
     // Whole chunks, then the rest of the row a texel at a time: the same steps either way.
-    let whole = g.w - g.w % CHUNK;
-    for col in (0..whole).step_by(CHUNK) {
+    let whole = cols.end - cols.len() % CHUNK;
+    for col in (cols.start..whole).step_by(CHUNK) {
         chunk::<CHUNK>(g, taps, row, col, best_s, best_t);
     }
-    for col in whole..g.w {
+    for col in whole..cols.end {
         chunk::<1>(g, taps, row, col, best_s, best_t);
     }
 }

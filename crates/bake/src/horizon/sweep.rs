@@ -20,7 +20,7 @@
 //! the previous answer; memory `O(W)`: a texel is finished as soon as its second line has
 //! answered, so no per-texel buffer is needed.
 
-use super::grid::Grid;
+use super::grid::{Grid, Region};
 pub(crate) use super::hull::Hit;
 use super::hull::{PrefixHull, Pt, SuffixHull};
 use super::steps::wrap_index;
@@ -49,6 +49,11 @@ pub(crate) struct Line<'a> {
     pub col0: i64,
     /// Grid column of the map's last column, where the whole map's sweep starts.
     pub restart: usize,
+    /// The texels wanted: the whole grid, or (with a finite reach, off the torus) a tile inside
+    /// its window, for which only the lines that cross it are swept, each from a block of the
+    /// reach to the tile's right. Texels of those lines outside it are still queried, so that
+    /// every walk along a hull is the whole grid's, and finished too: the caller skips them.
+    pub region: &'a Region,
 }
 
 /// Runs the far field of one direction. `finish(row, col, [below, above])` is called once per
@@ -66,16 +71,18 @@ pub(crate) fn far_field(
     }
     let mut sweeper = Sweeper { pending: vec![Pending::NONE; g.w], ..Default::default() };
     if line.wrap {
+        debug_assert_eq!(*line.region, Region::whole(g.w, g.h), "a torus is baked whole");
         // The lines form a cycle on the torus: line -1 (= h - 1) opens it, querying only the
         // texels above it, and line h - 1 closes it, querying only those below.
         for k in -1..g.h as i64 {
             sweeper.run(g, line, k, [k < g.h as i64 - 1, k >= 0], finish, prefetch);
         }
     } else {
-        // Every line that passes within a row of the grid somewhere along it.
-        let (first, last) = (line.rows[0] as i64, line.rows[g.w - 1] as i64);
-        let lo = -first.max(last) - 2;
-        let hi = g.h as i64 - first.min(last) + 1;
+        // Every line that passes within a row of the region somewhere along it.
+        let Region { cols, rows } = line.region;
+        let (first, last) = (line.rows[cols.start] as i64, line.rows[cols.end - 1] as i64);
+        let lo = rows.start as i64 - first.max(last) - 2;
+        let hi = rows.end as i64 - first.min(last) + 1;
         for k in lo..=hi {
             sweeper.run(g, line, k, [true, true], finish, prefetch);
         }
@@ -166,6 +173,7 @@ impl Sweeper {
         self.hints = [[0; 2]; 2];
         match line.reach {
             None => {
+                debug_assert_eq!(*line.region, Region::whole(w, g.h), "an unbounded reach is baked whole");
                 // Clamped: only the columns where the line is near the map matter. Past `i_hi`
                 // the line is half a row or more off the map, so it has no samples there and
                 // the hull starts empty.
@@ -187,7 +195,12 @@ impl Sweeper {
                 // first grid column (negative for blocks left of the grid).
                 let block = (reach - near) as i64;
                 let start = |b: i64| b * block - line.col0;
-                let a0 = w + near;
+                // The sweep starts past a block boundary to the region's right (or at the grid's
+                // right edge): hulls and walks restart there, so from the boundary on they are
+                // what a sweep of the whole grid has.
+                let cols = &line.region.cols;
+                let last = (cols.end + block as usize).min(w - 1);
+                let a0 = last + 1 + near;
                 let mut b = (a0 as i64 + line.col0).div_euclid(block);
                 let next = start(b + 1) as usize;
                 for c in (a0..next).rev() {
@@ -198,7 +211,7 @@ impl Sweeper {
                 for c in next..next + (a0 as i64 - start(b)) as usize {
                     self.prefix.push_back(Self::point(g, line, k, c));
                 }
-                for i in (0..w).rev() {
+                for i in (cols.start..=last).rev() {
                     let a = i + near + 1;
                     if i == line.restart {
                         self.hints = [[0; 2]; 2];

@@ -6,6 +6,11 @@
 //! it in the map ([`Frame`]) so that every decision the whole-map bake makes by position is made
 //! the same way; a tile's texels are then byte for byte the whole-map bake's.
 //!
+//! A tile computes only its own texels: the near field over its rows and columns, and the far
+//! field from the sweep lines that cross it, each swept from a block of the reach to the tile's
+//! right (where the whole map's sweep restarts its hulls too). So a tile costs about
+//! `1 + max_distance / tile side` times its own texels, not its whole window's.
+//!
 //! Without `max_distance` a ray may run to the map's edge (or around a torus), so every tile's
 //! halo would be the whole map: tiling is refused rather than silently reading everything.
 
@@ -14,7 +19,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use hikage_bundle::{EdgeMode, TextureData, TextureDesc};
 
 use super::direction::Direction;
-use super::grid::{Frame, Orientation};
+use super::grid::{Frame, Orientation, Region};
 use super::{HorizonParams, HorizonTexture, schedule, texture_desc};
 use crate::heightfield::Heightfield;
 
@@ -138,7 +143,8 @@ pub fn bake_tile(
         let (orientation, m) = for_azimuth(k);
         let frame = Frame::window(orientation, map, (wx, wy, size.0, size.1));
         let mut whole = vec![0u8; size.0 * size.1 * texel_bytes];
-        Direction::new(grid, frame, orientation, size, m, params, distance_scale).bake(&mut whole);
+        let region = Region::tile(orientation, size, (ox, oy, tw as usize, th as usize));
+        Direction::new(grid, frame, orientation, size, m, params, distance_scale).within(region).bake(&mut whole);
         let row_bytes = tw as usize * texel_bytes;
         for (r, out) in slice.chunks_exact_mut(row_bytes).enumerate() {
             let from = ((oy + r) * size.0 + ox) * texel_bytes;
