@@ -77,7 +77,7 @@ pub use mesh::{Accessor, ComponentType, MAX_VERTEX_STRIDE, MeshData, MeshDesc, V
 pub use names::{check_asset_id, is_payload_file_of, is_valid_asset_id, payload_file_name};
 pub use settings::{
     AmbientOcclusionSettings, CurvatureSettings, EdgeMode, HairBindingSettings, HeightfieldSettings, HorizonSettings,
-    MaxMipSettings, ReliefSettings, ScalpSettings, Settings, StrandsSettings, TilePlacement,
+    MaxMipSettings, ReliefSettings, ScalpSettings, Settings, StrandsSettings, TilePlacement, world_height,
 };
 pub use strands::{StrandPoint, read_strand_points, strands_desc};
 pub use texture::{Supercompression, TextureData, TextureDesc, TextureDimension, TextureFormat};

@@ -321,9 +321,19 @@ pub struct HeightfieldSettings {
 }
 
 impl HeightfieldSettings {
-    /// The world height of stored sample `v`: `height_offset + height_scale × v` (a normalised
-    /// integer sample as its 0–1 value).
+    /// The world height of stored sample `v` ([`world_height`]).
     pub fn world_height(&self, v: f32) -> f32 {
-        self.height_offset + self.height_scale * v
+        world_height(self.height_offset, self.height_scale, v)
     }
+}
+
+/// The one rule from a heightfield's stored sample `v` to a world height:
+/// `height_offset + height_scale × v` (a normalised integer sample as its 0–1 value). The baker,
+/// the runtime's references and every reader of a `Heightfield` asset use it.
+///
+/// ```
+/// assert_eq!(hikage_bundle::world_height(-100.0, 2000.0, 0.25), 400.0);
+/// ```
+pub fn world_height(height_offset: f32, height_scale: f32, v: f32) -> f32 {
+    height_offset + height_scale * v
 }

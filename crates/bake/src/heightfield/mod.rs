@@ -92,7 +92,7 @@ impl Heightfield {
 
     /// World height at column `x`, row `y`.
     pub fn world_height(&self, x: u32, y: u32) -> f32 {
-        self.height_offset + self.height_scale * self.sample(x, y)
+        hikage_bundle::world_height(self.height_offset, self.height_scale, self.sample(x, y))
     }
 
     /// The samples as a one-level 2D texture in `format` (R32Float or R16Float), channel

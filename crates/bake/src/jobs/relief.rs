@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use hikage_bundle::{MaxMipSettings, ReliefSettings, Settings};
+use hikage_bundle::{MaxMipSettings, ReliefSettings, Settings, world_height};
 use serde::{Deserialize, Deserializer, Serialize};
 
 use super::source::{HeightSource, deserialize_flat};
@@ -146,12 +146,13 @@ impl ReliefJob {
     /// (world units applied) in [0, 1], its sides powers of two.
     fn load(&self, ctx: &JobContext) -> Result<crate::Heightfield, BakeError> {
         let source = &self.source;
-        let mut hf = source.load(ctx, &|v| relief::check_height(source.height_offset + source.height_scale * v))?;
+        let mut hf =
+            source.load(ctx, &|v| relief::check_height(world_height(source.height_offset, source.height_scale, v)))?;
         let path = source.path(ctx.base_dir);
         self.params().check_for(hf.width, hf.height).map_err(|m| BakeError::input(&path, None, m))?;
         // Relief maps are in texture space: the heights are what the baker reads.
         if (source.height_scale, source.height_offset) != (1.0, 0.0) {
-            hf.samples.iter_mut().for_each(|v| *v = source.height_offset + source.height_scale * *v);
+            hf.samples.iter_mut().for_each(|v| *v = world_height(source.height_offset, source.height_scale, *v));
             (hf.height_scale, hf.height_offset) = (1.0, 0.0);
         }
         Ok(hf)
@@ -217,7 +218,7 @@ impl Baker for ReliefJob {
     fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
         // A block of the file at a time, with the checks `load` makes.
         let s = &self.source;
-        let file = s.scan(ctx, true, &|v| relief::check_height(s.height_offset + s.height_scale * v))?;
+        let file = s.scan(ctx, true, &|v| relief::check_height(world_height(s.height_offset, s.height_scale, v)))?;
         let (w, h) = file.size();
         self.params().check_for(w, h).map_err(|m| BakeError::input(s.path(ctx.base_dir), None, m))
     }

@@ -92,7 +92,7 @@ impl HeightSource {
     /// (its storage, its range).
     fn check_sample(&self, v: f32, check: &dyn Fn(f32) -> Result<(), String>) -> Result<(), String> {
         check(v)?;
-        let world = self.height_offset + self.height_scale * v;
+        let world = hikage_bundle::world_height(self.height_offset, self.height_scale, v);
         if !world.is_finite() {
             return Err(format!(
                 "sample {v} gives world height {world} (height_offset + height_scale × sample): expected a finite one"

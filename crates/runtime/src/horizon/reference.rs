@@ -4,7 +4,7 @@
 //! pixel. The tests hold the shaders to them; tools can shadow without a device.
 
 use glam::{Vec2, Vec3};
-use hikage_bundle::{EdgeMode, HorizonSettings, TextureData, TextureDimension};
+use hikage_bundle::{EdgeMode, HorizonSettings, TextureData, TextureDimension, world_height};
 
 use super::{HorizonEncoding, SurfaceUniform};
 use crate::error::RuntimeError;
@@ -472,7 +472,7 @@ impl SurfaceReference {
         let f = uv - uv.floor();
         let (w, h) = self.size;
         let (i, j) = (((f.x * w as f32).floor() as usize).min(w - 1), ((f.y * h as f32).floor() as usize).min(h - 1));
-        let height = self.statics.height_offset + self.statics.height_scale * self.heights[j * w + i];
+        let height = world_height(self.statics.height_offset, self.statics.height_scale, self.heights[j * w + i]);
         horizon_surface_lit(&self.map, uv, s, height, Vec2::from(self.statics.texel_size), corrected)
     }
 }
