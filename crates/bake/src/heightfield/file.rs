@@ -81,6 +81,19 @@ impl HeightFile {
         (self.width, self.height)
     }
 
+    /// A maker of more readers of the same file when one costs nothing (raw and `.hgt` rows,
+    /// read by seeking), so that windows can be read on several threads; `None` for formats
+    /// that hold decoder state or a decoded image.
+    pub fn readers(&self) -> Option<impl Fn() -> HeightFile + Sync + '_> {
+        let Format::Rows { bytes, hgt } = self.format else { return None };
+        Some(move || HeightFile {
+            path: self.path.clone(),
+            width: self.width,
+            height: self.height,
+            format: Format::Rows { bytes, hgt },
+        })
+    }
+
     /// Whether samples are integers normalised to [0, 1], and the channel they come from.
     pub fn channel(&self) -> (bool, String) {
         match &self.format {
@@ -209,6 +222,8 @@ impl HeightFile {
         for (i, &r) in rows.iter().enumerate() {
             at_row[(r - row_span.0) as usize].push(i as u32);
         }
+        // Without wrapping, the window's columns are one run of the map's.
+        let contiguous = cols.iter().enumerate().all(|(i, &c)| c == col_span.0 + i as u32);
         let mut out = vec![f32::NAN; w as usize * h as usize];
         self.for_each_block(
             row_span,
@@ -221,6 +236,18 @@ impl HeightFile {
                         continue;
                     }
                     for &wy in &at_row[(r - row_span.0) as usize] {
+                        if contiguous {
+                            // Window column i is map column col_span.0 + i: the block's part of
+                            // the row is one run.
+                            let (lo, hi) = (c0.max(col_span.0), (c0 + bw).min(col_span.1));
+                            if lo < hi {
+                                let dst = wy as usize * w as usize + (lo - col_span.0) as usize;
+                                let src = (br * bw + lo - c0) as usize;
+                                out[dst..dst + (hi - lo) as usize]
+                                    .copy_from_slice(&values[src..src + (hi - lo) as usize]);
+                            }
+                            continue;
+                        }
                         for bc in 0..bw {
                             let c = c0 + bc;
                             if c < col_span.0 || c >= col_span.1 {

@@ -19,10 +19,11 @@
 use std::path::{Path, PathBuf};
 
 use hikage_bundle::TilePlacement;
+use rayon::prelude::*;
 
 use super::HorizonJob;
 use crate::error::BakeError;
-use crate::heightfield::Heightfield;
+use crate::heightfield::{HeightFile, Heightfield};
 use crate::horizon::{self, Rect, TileWindow};
 use crate::jobs::{BakedAsset, Baker, JobContext};
 
@@ -55,10 +56,10 @@ pub(super) fn tiles(job: &HorizonJob, size: u32, ctx: &JobContext) -> Result<Vec
     let mut source = job.source.open(ctx)?;
     let map = source.size();
     let void_fill = source.void_fill()?;
-    let mut parts: Vec<Box<dyn Baker>> = Vec::new();
     // Tiles start every `size` texels and hold one more, the next tile's first column and row:
     // a mesh through texel centres then meets its neighbour's without a crack.
     let count = |n: u32| (n.saturating_sub(1)).div_ceil(size).max(1);
+    let mut places = Vec::new();
     for level in 0..job.options.levels.unwrap_or(1) {
         let (w, h) = horizon::pyramid::level_size(map, level, job.options.edge).map_err(setting)?;
         let s = (1u32 << level) as f32;
@@ -77,28 +78,42 @@ pub(super) fn tiles(job: &HorizonJob, size: u32, ctx: &JobContext) -> Result<Vec
                         rect.width, rect.height, job.options.max_distance, limits.max_dimension
                     )));
                 }
-                let samples = read_window(&mut source, (map, level, job.options.edge), place.window, void_fill)?;
-                let mut digest = blake3::Hasher::new();
-                let (normalized, channel) = source.channel();
-                digest.update(format!("map={map:?};normalized={normalized};channel={channel};").as_bytes());
-                for chunk in samples.chunks(1 << 16) {
-                    digest.update(&chunk.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>());
-                }
-                parts.push(Box::new(HorizonTileJob {
-                    id: hikage_bundle::tiles::tile_id(&job.id, level, (tx, ty)),
-                    job: job.clone(),
-                    level,
-                    index: (tx, ty),
-                    place,
-                    map,
-                    input_digest: digest.finalize().to_hex().to_string(),
-                    void_fill,
-                }));
+                places.push((level, (tx, ty), place));
             }
         }
         if count(w) == 1 && count(h) == 1 {
             break;
         }
+    }
+    let (normalized, channel) = source.channel();
+    let digest = |file: &mut HeightFile, &(level, _, place): &(u32, (u32, u32), TileWindow)| {
+        let samples = read_window(file, (map, level, job.options.edge), place.window, void_fill)?;
+        let mut digest = blake3::Hasher::new();
+        digest.update(format!("map={map:?};normalized={normalized};channel={channel};").as_bytes());
+        let mut bytes = vec![0u8; 4 << 16];
+        for chunk in samples.chunks(1 << 16) {
+            let bytes = &mut bytes[..4 * chunk.len()];
+            bytes.chunks_exact_mut(4).zip(chunk).for_each(|(b, v)| b.copy_from_slice(&v.to_le_bytes()));
+            digest.update(bytes);
+        }
+        Ok::<_, BakeError>(digest.finalize().to_hex().to_string())
+    };
+    // Windows of formats read by seeking are read on every thread, each with its own reader.
+    let parallel = source.readers().map(|reader| places.par_iter().map_init(reader, |f, p| digest(f, p)).collect());
+    let digests: Vec<Result<String, BakeError>> =
+        parallel.unwrap_or_else(|| places.iter().map(|p| digest(&mut source, p)).collect());
+    let mut parts: Vec<Box<dyn Baker>> = Vec::new();
+    for ((level, index, place), input_digest) in places.into_iter().zip(digests) {
+        parts.push(Box::new(HorizonTileJob {
+            id: hikage_bundle::tiles::tile_id(&job.id, level, index),
+            job: job.clone(),
+            level,
+            index,
+            place,
+            map,
+            input_digest: input_digest?,
+            void_fill,
+        }));
     }
     Ok(parts)
 }
@@ -106,7 +121,7 @@ pub(super) fn tiles(job: &HorizonJob, size: u32, ctx: &JobContext) -> Result<Vec
 /// The samples of `window` (in the level's texels) at `level` of the map of `file`: level 0's as
 /// read, a coarser level's reduced from them; voids take `fill`.
 fn read_window(
-    file: &mut crate::heightfield::HeightFile,
+    file: &mut HeightFile,
     (map, level, edge): ((u32, u32), u32, hikage_bundle::EdgeMode),
     window: Rect<i64>,
     fill: Option<f32>,
