@@ -85,6 +85,7 @@ fn fuzz_regressions_replay_without_panicking() {
         ("exr", "heightfield"),
         ("ktx2", "ktx2"),
         ("pipeline", "pipeline"),
+        ("../../data/grooms", "usd_groom"),
     ] {
         let run = hikage_devkit::fuzzing::TARGETS.iter().find(|t| t.0 == target).unwrap().1;
         for entry in std::fs::read_dir(corpus().join(dir)).unwrap() {

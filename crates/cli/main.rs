@@ -134,7 +134,7 @@ enum Command {
         #[command(flatten)]
         target: OneShot,
     },
-    /// Bake hair strip meshes from a `.hair` file or OBJ polylines into BUNDLE (`<id>.strips`,
+    /// Bake hair strip meshes from a USD groom, a `.hair` file or OBJ polylines into BUNDLE (`<id>.strips`,
     /// and `<id>.ribbons` with --ribbons). Widths are full widths in the input's units.
     #[command(after_help = EXIT_CODES)]
     Strands {

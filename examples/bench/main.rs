@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! cargo run --release --example bench              # every table
-//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, fit, load, size, tiles, tile-cost, pyramid, stream, raised, field, fourier, bc
+//! cargo run --release --example bench -- relief    # one: horizon, relief, hair, grooms, fit, load, size, tiles, tile-cost, pyramid, stream, raised, field, fourier, bc
 //! cargo run --release --example bench -- scale     # tiled bakes: ~40 min, ~50 GiB of disk
 //! cargo run --release --example bench -- pyramid-scale   # a 16384² pyramid: ~20 min, ~8 GiB
 //! cargo run --release --example bench -- build-script   # clean builds of a game crate: ~15 min
@@ -19,6 +19,7 @@ mod edit;
 mod field;
 mod fit;
 mod fourier;
+mod grooms;
 mod hair;
 mod horizon;
 mod load;
@@ -132,6 +133,9 @@ fn main() {
     }
     if wanted("tiles") {
         tiles::run();
+    }
+    if wanted("grooms") {
+        grooms::run();
     }
     if wanted("tile-cost") {
         tile_cost::run();

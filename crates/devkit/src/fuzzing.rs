@@ -81,6 +81,24 @@ pub fn obj_polylines(data: &[u8]) {
     }
 }
 
+/// USD bytes → [`hikage_bake::strands::usd::load`] as `.usda` and as `.usdc`, and strips of what
+/// it accepts (files up to 1 MiB).
+pub fn usd_groom(data: &[u8]) {
+    if data.len() > 1 << 20 {
+        return;
+    }
+    let limits = hikage_bake::strands::cyhair::HairLimits { max_strands: 100_000, max_points: 1_000_000 };
+    for name in ["groom.usda", "groom.usdc"] {
+        let path = scratch().join(name);
+        if std::fs::write(&path, data).is_ok()
+            && let Ok((s, _)) = hikage_bake::strands::usd::load(&path, &limits)
+        {
+            let sets = hikage_bake::strands::strips::StripSets::from_source(&s);
+            let _ = hikage_bake::strands::strips::build(&s, &sets);
+        }
+    }
+}
+
 /// `pipeline.ron` text → parse and check every job's settings.
 pub fn pipeline(data: &[u8]) {
     if let Ok(text) = std::str::from_utf8(data) {
@@ -183,12 +201,13 @@ pub fn cache_entry(data: &[u8]) {
 pub type Target = fn(&[u8]);
 
 /// The targets by name, for the regression replay.
-pub const TARGETS: [(&str, Target); 10] = [
+pub const TARGETS: [(&str, Target); 11] = [
     ("manifest", manifest),
     ("bundle", bundle),
     ("ktx2", ktx2),
     ("hair", hair),
     ("obj_polylines", obj_polylines),
+    ("usd_groom", usd_groom),
     ("pipeline", pipeline),
     ("heightfield", heightfield),
     ("mesh", mesh),

@@ -9,7 +9,7 @@ use super::source::deserialize_flat;
 use super::{BakedAsset, Baker, JobContext};
 use crate::error::BakeError;
 use crate::strands::strips::{self, StripSets};
-use crate::strands::{self, Strands, auto, bind, ribbons};
+use crate::strands::{self, Strands, UpAxis, auto, bind, ribbons};
 
 /// Version of the strands job; part of the input hash. 3: point records (format 1.5), colour
 /// settings, the visibility rule; 4: quantized ribbon streams (format 1.10); 5: binding to a
@@ -32,7 +32,8 @@ pub struct StrandsJob {
     /// Prefix of the asset ids.
     #[cfg_attr(feature = "clap", arg(skip))]
     pub id: String,
-    /// Cem Yuksel `.hair` file (by its signature) or Wavefront OBJ with `l` polylines.
+    /// A USD groom (`.usd`, `.usda`, `.usdc`, `.usdz`: every `BasisCurves` prim), a Cem Yuksel
+    /// `.hair` file (by its signature) or Wavefront OBJ with `l` polylines.
     pub input: PathBuf,
     /// The job's own settings.
     #[cfg_attr(feature = "clap", command(flatten))]
@@ -86,6 +87,14 @@ pub struct StrandsOptions {
     /// bounding-box diagonal); a root farther away is an error naming the strand.
     #[cfg_attr(feature = "clap", arg(long, value_name = "DISTANCE"))]
     pub scalp_distance: Option<f32>,
+    /// Metres per unit of the input's coordinates and widths: the strands are scaled by it
+    /// (default: the file's own, USD `metersPerUnit`; 1 for `.hair` and OBJ, which do not say).
+    #[cfg_attr(feature = "clap", arg(long, value_name = "METRES"))]
+    pub units: Option<f32>,
+    /// The input's up axis, turned into the bundle's +Y (default: the file's own, USD `upAxis`;
+    /// Y for `.hair` and OBJ).
+    #[cfg_attr(feature = "clap", arg(long, value_enum))]
+    pub up: Option<UpAxis>,
     /// Payload compression: `Auto` (a zstd level per kind of payload, `--zstd auto`), `Zstd(level)`
     /// (1–22), or `None` (`--zstd 0`).
     #[cfg_attr(
@@ -199,6 +208,23 @@ impl StrandsJob {
             self.options.opacity_alpha.unwrap_or(shading.1 * strips::PAPER_ALPHA_RATIO),
         );
         StripSets { shading, opacity, taper: self.options.taper }
+    }
+
+    /// The input's strands in the bundle's frame: scaled by `units` (else the file's metres per
+    /// unit, else 1) and turned from `up` (else the file's up axis, else Y) to +Y.
+    pub fn load(&self, path: &Path) -> Result<Strands, BakeError> {
+        let (mut s, frame) = strands::load_groom(path)?;
+        let units = self.options.units.or(frame.meters_per_unit).unwrap_or(1.0);
+        let up = self.options.up.or(frame.up).unwrap_or(UpAxis::Y);
+        if units != 1.0 {
+            s.points.iter_mut().flatten().for_each(|c| *c *= units);
+            s.thickness.iter_mut().flatten().for_each(|t| *t *= units);
+            s.default_thickness *= units;
+        }
+        if up == UpAxis::Z {
+            s.points.iter_mut().for_each(|p| *p = [p[0], p[2], -p[1]]);
+        }
+        Ok(s)
     }
 
     /// The colour settings applied to `s`: with any of `color`, `root_color`, `tip_color`, every
@@ -319,7 +345,12 @@ impl Baker for StrandsJob {
     }
 
     fn canonical_settings(&self) -> String {
-        format!(
+        // The frame settings join the hash only when set, so jobs without them keep theirs.
+        let frame = match (self.options.units, self.options.up) {
+            (None, None) => String::new(),
+            (units, up) => format!(";units={units:?};up={up:?}"),
+        };
+        let settings = format!(
             "shading=({:?},{:?});opacity=({:?},{:?});auto={:?};taper={:?};ribbons={};color={:?};root={:?};tip={:?};scalp={};scalp_distance={:?}",
             self.options.shading_width,
             self.options.shading_alpha,
@@ -333,7 +364,8 @@ impl Baker for StrandsJob {
             self.options.tip_color,
             self.options.scalp.is_some(),
             self.options.scalp_distance
-        )
+        );
+        settings + &frame
     }
 
     fn check(&self) -> Result<(), String> {
@@ -372,6 +404,11 @@ impl Baker for StrandsJob {
         if self.options.scalp_distance.is_some() && self.options.scalp.is_none() {
             return Err("scalp_distance is set but no scalp is given".into());
         }
+        if let Some(u) = self.options.units
+            && !(u.is_finite() && u > 0.0)
+        {
+            return Err(format!("units must be a finite number of metres above 0, found {u}"));
+        }
         if !(0.0..=1.0).contains(&self.options.taper) {
             return Err(format!("taper must be in [0, 1], found {}", self.options.taper));
         }
@@ -388,7 +425,7 @@ impl Baker for StrandsJob {
 
     fn check_inputs(&self, ctx: &JobContext) -> Result<(), BakeError> {
         let path = ctx.base_dir.join(&self.input);
-        let s = strands::load(&path)?;
+        let s = self.load(&path)?;
         let sets = self.sets(&s);
         self.check_visible(&s, &sets, &path)?;
         self.bind(&s, 0.0, ctx).map(drop)
@@ -397,7 +434,7 @@ impl Baker for StrandsJob {
     fn bake(&self, ctx: &JobContext) -> Result<Vec<BakedAsset>, BakeError> {
         (ctx.progress)(0, 2);
         let path = ctx.base_dir.join(&self.input);
-        let mut s = strands::load(&path)?;
+        let mut s = self.load(&path)?;
         self.apply_colors(&mut s);
         let mut sets = self.sets(&s);
         self.check_visible(&s, &sets, &path)?;

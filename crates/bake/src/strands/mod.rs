@@ -1,5 +1,6 @@
 //! Hair and fur strands: polylines with optional per-point thickness, transparency and colour,
-//! read from Cem Yuksel's `.hair` format ([`cyhair`]) or OBJ polylines ([`obj`]).
+//! read from Cem Yuksel's `.hair` format ([`cyhair`]), OBJ polylines ([`obj`]) or, with the `usd`
+//! feature, USD `BasisCurves` ([`usd`]).
 
 pub mod auto;
 pub mod bind;
@@ -7,6 +8,8 @@ pub mod cyhair;
 pub mod obj;
 pub mod ribbons;
 pub mod strips;
+#[cfg(feature = "usd")]
+pub mod usd;
 
 use std::path::Path;
 
@@ -32,6 +35,77 @@ pub struct Strands {
     pub default_transparency: f32,
     /// Colour where no per-point value is stored.
     pub default_color: [f32; 3],
+}
+
+/// A file's up axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum UpAxis {
+    /// +Y up: the bundle's frame, glTF's, Maya's and Houdini's default.
+    Y,
+    /// +Z up: Blender's frame, and USD stages that say so; turned to Y up as
+    /// `(x, y, z) → (x, z, −y)`.
+    Z,
+}
+
+/// How a file places its strands, as far as it says: metres per unit of its coordinates and
+/// widths, and its up axis. `.hair` and OBJ files say neither.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FileFrame {
+    /// Metres per unit (USD `metersPerUnit`).
+    pub meters_per_unit: Option<f32>,
+    /// Up axis (USD `upAxis`).
+    pub up: Option<UpAxis>,
+}
+
+/// Whether `path` names a USD file (by its extension: USD files may be text or binary).
+pub fn is_usd(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| ["usd", "usda", "usdc", "usdz"].iter().any(|u| e.eq_ignore_ascii_case(u)))
+}
+
+/// Reads strands and the frame the file states: USD by its extension, a `.hair` file by its
+/// `HAIR`/`hair` signature, OBJ polylines otherwise.
+pub fn load_groom(path: &Path) -> Result<(Strands, FileFrame), BakeError> {
+    if is_usd(path) {
+        return load_usd(path);
+    }
+    if path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("abc")) {
+        return Err(BakeError::input(
+            path,
+            None,
+            "an Alembic archive: this version reads grooms as USD, .hair or OBJ; export the groom as USD \
+             (Blender: File > Export > Universal Scene Description)",
+        ));
+    }
+    load(path).map(|s| (s, FileFrame::default()))
+}
+
+#[cfg(feature = "usd")]
+fn load_usd(path: &Path) -> Result<(Strands, FileFrame), BakeError> {
+    let limits = HairLimits::default();
+    // The parser reads the whole file: its size is bounded first, like a `.hair` file's.
+    let max_bytes = 128 + 2 * limits.max_strands + 32 * limits.max_points;
+    let size = hikage_bundle::files::regular_metadata(path).map_err(|e| BakeError::io(path, e))?.len();
+    if size > max_bytes {
+        return Err(BakeError::Limit {
+            path: path.into(),
+            what: "strand file size".into(),
+            value: size,
+            limit: max_bytes,
+        });
+    }
+    usd::load(path, &limits)
+}
+
+#[cfg(not(feature = "usd"))]
+fn load_usd(path: &Path) -> Result<(Strands, FileFrame), BakeError> {
+    Err(BakeError::input(
+        path,
+        None,
+        "a USD file, but this build of hikage-bake reads no USD: enable its `usd` feature",
+    ))
 }
 
 /// Reads strands: a `.hair` file when it starts with `HAIR`/`hair`, OBJ polylines otherwise.

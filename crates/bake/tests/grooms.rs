@@ -1,0 +1,177 @@
+//! Grooms from the tools artists use: the fixtures in `data/grooms/` were written by Pixar's
+//! usd-core and by Blender 5.0 (`data/grooms/make_grooms.py`), in their own units and axes,
+//! from one groom that the script also wrote as a `.hair` file. Read through the `Strands` job
+//! (which brings each file's units and up axis into the bundle's frame), every one gives the
+//! `.hair` file's strands. Then mistakes, each named with the file and the prim.
+#![cfg(feature = "usd")]
+
+use std::path::{Path, PathBuf};
+
+use hikage_bake::jobs::StrandsJob;
+use hikage_bake::strands::{Strands, UpAxis};
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/grooms").join(name)
+}
+
+fn load(name: &str) -> Strands {
+    StrandsJob::new("groom", data(name)).load(&data(name)).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+/// The largest difference between two lists of equal length.
+fn worst<const N: usize>(a: &[[f32; N]], b: &[[f32; N]]) -> f32 {
+    assert_eq!(a.len(), b.len());
+    a.iter().zip(b).flat_map(|(p, q)| p.iter().zip(q).map(|(x, y)| (x - y).abs())).fold(0.0, f32::max)
+}
+
+#[test]
+fn one_groom_reads_the_same_from_hair_usda_usdc_and_blender() {
+    let hair = load("groom.hair");
+    assert_eq!(hair.segments, vec![7; 48]);
+    let widths =
+        |s: &Strands| -> Vec<[f32; 1]> { s.thickness.as_ref().expect("widths").iter().map(|&w| [w]).collect() };
+    for name in ["groom_linear.usda", "groom_cm_zup.usdc", "groom_blender.usdc"] {
+        let usd = load(name);
+        assert_eq!(usd.segments, hair.segments, "{name}");
+        // Metres: a micrometre covers float rounding through centimetres, Z up and a parent
+        // Xform's translation.
+        let (dp, dw) = (worst(&usd.points, &hair.points), worst(&widths(&usd), &widths(&hair)));
+        eprintln!("{name}: points within {dp:e} m, widths within {dw:e} m");
+        assert!(dp < 1e-6, "{name}: points differ by {dp} m");
+        assert!(dw < 1e-9, "{name}: widths differ by {dw} m");
+        assert!((usd.default_thickness - hair.default_thickness).abs() < 1e-9, "{name}");
+        if name != "groom_blender.usdc" {
+            // Blender's exporter writes its own displayColor, not the script's colours.
+            let dc = worst(usd.color.as_ref().expect("colours"), hair.color.as_ref().expect("colours"));
+            assert!(dc < 1e-6, "{name}: colours differ by {dc}");
+        }
+    }
+}
+
+#[test]
+fn the_jobs_units_and_axis_override_the_files() {
+    let hair = load("groom.hair");
+    let name = "groom_cm_zup.usdc";
+    // Telling the job what the file already says changes nothing.
+    let mut job = StrandsJob::new("groom", data(name));
+    (job.options.units, job.options.up) = (Some(0.01), Some(UpAxis::Z));
+    let same = job.load(&data(name)).unwrap();
+    assert_eq!(same, load(name));
+    // Read as metres and Y up, the file's own numbers come through as they are: a hundred
+    // times the size, with the file's Z where the bundle's Y is.
+    (job.options.units, job.options.up) = (Some(1.0), Some(UpAxis::Y));
+    let raw = job.load(&data(name)).unwrap();
+    let (p, q) = (raw.points[5], hair.points[5]);
+    let want = [100.0 * q[0], -100.0 * q[2], 100.0 * q[1]];
+    assert!((0..3).all(|k| (p[k] - want[k]).abs() < 1e-3), "{p:?} against {want:?}");
+}
+
+#[test]
+fn widths_and_colours_in_every_interpolation() {
+    let hair = load("groom.hair");
+    let s = load("groom_interpolations.usda");
+    // Three prims of the first two strands each: constant, uniform, varying.
+    assert_eq!(s.segments, vec![7; 6]);
+    assert!(worst(&s.points[..16], &hair.points[..16]) < 1e-6);
+    let w = s.thickness.as_ref().unwrap();
+    let near = |a: f32, b: f32| (a - b).abs() < 1e-9;
+    assert!(w[..16].iter().all(|&v| near(v, 0.0006)), "constant: {:?}", &w[..16]);
+    assert!(w[16..24].iter().all(|&v| near(v, 0.0004)) && w[24..32].iter().all(|&v| near(v, 0.0007)), "uniform");
+    let hw = hair.thickness.as_ref().unwrap();
+    assert!(w[32..].iter().zip(&hw[..16]).all(|(&a, &b)| near(a, b)), "varying");
+    // Colours are on the first two prims only: a stage whose prims disagree keeps none.
+    assert_eq!(s.color, None);
+}
+
+/// A `.usda` file in a scratch directory.
+fn usda(name: &str, text: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("grooms");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// One linear `BasisCurves` prim at `/Groom/Hair` with these attribute lines.
+fn curves(attributes: &str) -> String {
+    format!(
+        "#usda 1.0\n(\n    upAxis = \"Y\"\n)\n\ndef Xform \"Groom\"\n{{\n    def BasisCurves \"Hair\"\n    {{\n        \
+         uniform token type = \"linear\"\n{attributes}\n    }}\n}}\n"
+    )
+}
+
+fn error(path: &Path) -> String {
+    match StrandsJob::new("groom", path.to_path_buf()).load(path) {
+        Ok(s) => panic!("{} read as {} strands", path.display(), s.segments.len()),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn mistakes_are_named_with_the_file_and_the_prim() {
+    let points = "        point3f[] points = [(0, 0, 0), (0, 1, 0), (1, 0, 0), (1, 1, 0)]";
+    for (name, attributes, want) in [
+        ("counts.usda", format!("        int[] curveVertexCounts = [2, 3]\n{points}"), "add up to 5 points"),
+        ("one_point.usda", format!("        int[] curveVertexCounts = [1, 3]\n{points}"), "curve 0 has 1 points"),
+        (
+            "nan.usda",
+            "        int[] curveVertexCounts = [2]\n        point3f[] points = [(0, 0, 0), (0, nan, 0)]".into(),
+            "point 1",
+        ),
+        (
+            "negative.usda",
+            format!(
+                "        int[] curveVertexCounts = [2, 2]\n{points}\n        float[] widths = [0.1, -0.1, 0.1, 0.1] (interpolation = \"vertex\")"
+            ),
+            "width 1 is -0.1",
+        ),
+        (
+            "short_widths.usda",
+            format!(
+                "        int[] curveVertexCounts = [2, 2]\n{points}\n        float[] widths = [0.1, 0.1] (interpolation = \"vertex\")"
+            ),
+            "widths holds 2 values for vertex interpolation, expected 4",
+        ),
+        ("no_points.usda", "        int[] curveVertexCounts = [2]".into(), "no points"),
+    ] {
+        let path = usda(name, &curves(&attributes));
+        let e = error(&path);
+        assert!(e.contains(name) && e.contains("/Groom/Hair") && e.contains(want), "{name}: {e}");
+    }
+    let none = usda("none.usda", "#usda 1.0\n\ndef Xform \"Groom\"\n{\n}\n");
+    let e = error(&none);
+    assert!(e.contains("none.usda") && e.contains("no BasisCurves"), "{e}");
+}
+
+#[test]
+fn damaged_files_are_errors_not_panics() {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("grooms");
+    std::fs::create_dir_all(&dir).unwrap();
+    for source in ["groom_cm_zup.usdc", "groom_linear.usda", "groom_blender.usdc"] {
+        let bytes = std::fs::read(data(source)).unwrap();
+        let ext = source.rsplit('.').next().unwrap();
+        // Cut short at many lengths, and with a stretch of bytes overwritten.
+        let mut cases: Vec<Vec<u8>> = [0, 7, 16, 88, bytes.len() / 3, bytes.len() / 2, bytes.len() - 9]
+            .iter()
+            .map(|&n| bytes[..n].to_vec())
+            .collect();
+        for at in [24, bytes.len() / 4, bytes.len() / 2, bytes.len() - 200] {
+            let mut b = bytes.clone();
+            b[at..at + 64].iter_mut().enumerate().for_each(|(i, v)| *v = (i as u8).wrapping_mul(37) ^ 0xa5);
+            cases.push(b);
+        }
+        for (i, case) in cases.iter().enumerate() {
+            let path = dir.join(format!("damaged_{i}_{source}"));
+            std::fs::write(&path, case).unwrap();
+            // A file cut short is an error that names it; an overwritten stretch is too, unless
+            // the format cannot notice (text in a string, say): then it reads as strands.
+            match StrandsJob::new("groom", path.clone()).load(&path) {
+                Err(e) => {
+                    let e = e.to_string();
+                    assert!(e.contains(&format!("damaged_{i}_{source}")), "{source} case {i} ({ext}): {e}");
+                }
+                Ok(_) => assert!(i >= 7, "{source} cut to {} bytes read as a groom", case.len()),
+            }
+        }
+    }
+}
