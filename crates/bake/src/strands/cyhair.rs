@@ -76,6 +76,14 @@ pub struct HairLimits {
     pub max_points: u64,
 }
 
+impl HairLimits {
+    /// The largest strand file these limits allow: a `.hair` header, segments and every
+    /// per-point array; other formats are held to the same size before they are read.
+    pub fn max_file_bytes(&self) -> u64 {
+        128 + 2 * self.max_strands + 32 * self.max_points
+    }
+}
+
 impl Default for HairLimits {
     fn default() -> Self {
         HairLimits { max_strands: 4_000_000, max_points: 100_000_000 }

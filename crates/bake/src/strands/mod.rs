@@ -86,15 +86,12 @@ pub fn load_groom(path: &Path) -> Result<(Strands, FileFrame), BakeError> {
 fn load_usd(path: &Path) -> Result<(Strands, FileFrame), BakeError> {
     let limits = HairLimits::default();
     // The parser reads the whole file: its size is bounded first, like a `.hair` file's.
-    let max_bytes = 128 + 2 * limits.max_strands + 32 * limits.max_points;
-    let size = hikage_bundle::files::regular_metadata(path).map_err(|e| BakeError::io(path, e))?.len();
-    if size > max_bytes {
-        return Err(BakeError::Limit {
-            path: path.into(),
-            what: "strand file size".into(),
-            value: size,
-            limit: max_bytes,
-        });
+    let (size, limit) = (
+        hikage_bundle::files::regular_metadata(path).map_err(|e| BakeError::io(path, e))?.len(),
+        limits.max_file_bytes(),
+    );
+    if size > limit {
+        return Err(BakeError::Limit { path: path.into(), what: "strand file size".into(), value: size, limit });
     }
     usd::load(path, &limits)
 }
@@ -111,9 +108,7 @@ fn load_usd(path: &Path) -> Result<(Strands, FileFrame), BakeError> {
 /// Reads strands: a `.hair` file when it starts with `HAIR`/`hair`, OBJ polylines otherwise.
 pub fn load(path: &Path) -> Result<Strands, BakeError> {
     let limits = HairLimits::default();
-    // The largest file the limits allow: header, segments, and every per-point array.
-    let max_bytes = 128 + 2 * limits.max_strands + 32 * limits.max_points;
-    let bytes = hikage_bundle::files::read_limited(path, max_bytes, "strand file size")?;
+    let bytes = hikage_bundle::files::read_limited(path, limits.max_file_bytes(), "strand file size")?;
     if bytes.starts_with(b"HAIR") || bytes.starts_with(b"hair") {
         return cyhair::decode(&bytes, &limits).map_err(|e| match e.over_limit {
             Some((value, limit)) => {
