@@ -169,8 +169,39 @@ def write_blender(strands):
     bpy.ops.wm.alembic_export(filepath=os.path.join(HERE, "groom_blender.abc"))
 
 
+def write_character():
+    """A skinned head for the groom's roots, as an artist would export it: a sphere of the
+    groom's radius at the head's place, bound with automatic weights to a one-bone armature,
+    exported by Blender's glTF exporter (+Y up, skin on; no normals or UVs, which a scalp does
+    not use)."""
+    import bpy
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=24, ring_count=12, radius=RADIUS, location=(HEAD[0], -HEAD[2], HEAD[1]))
+    head = bpy.context.active_object
+    head.name = "head"
+    bpy.ops.object.armature_add(location=(HEAD[0], -HEAD[2], HEAD[1] - 0.15))
+    rig = bpy.context.active_object
+    rig.name = "rig"
+    bpy.ops.object.select_all(action="DESELECT")
+    head.select_set(True)
+    rig.select_set(True)
+    bpy.context.view_layer.objects.active = rig
+    bpy.ops.object.parent_set(type="ARMATURE_AUTO")
+    bpy.ops.export_scene.gltf(
+        filepath=os.path.join(HERE, "character_blender.glb"),
+        export_format="GLB",
+        export_yup=True,
+        export_skins=True,
+        export_animations=False,
+        export_normals=False,
+        export_texcoords=False,
+    )
+
+
 if __name__ == "__main__":
     strands = groom()
     write_hair(os.path.join(HERE, "groom.hair"), strands)
     write_usd(strands)
     write_blender(strands)
+    write_character()

@@ -175,3 +175,57 @@ fn damaged_files_are_errors_not_panics() {
         }
     }
 }
+
+/// The character too: Blender's USD groom bound to the skinned head Blender exported as glTF
+/// (`character_blender.glb`, a one-bone rig), through a pipeline as a game's would run it.
+/// Every strand is bound to the triangle nearest its root, found here by brute force over every
+/// triangle of the glTF's mesh, and its root lies on that triangle within the sphere's
+/// tessellation.
+#[test]
+fn a_blender_groom_binds_to_blenders_skinned_head() {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("grooms_bound");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let pipeline = dir.join("pipeline.ron");
+    std::fs::write(
+        &pipeline,
+        format!(
+            r#"(output: "bundle", jobs: [Strands(id: "head", input: "{}", scalp: Some("{}"))])"#,
+            data("groom_blender.usdc").display(),
+            data("character_blender.glb").display()
+        ),
+    )
+    .unwrap();
+    hikage_bake::run_pipeline(&pipeline, &hikage_bake::RunOptions::default()).unwrap();
+    let bundle = hikage_bundle::Bundle::open(&dir.join("bundle")).unwrap();
+    let bindings = hikage_bundle::binding::read_binding(&bundle.read_mesh("head.binding").unwrap()).unwrap();
+    let scalp = hikage_bundle::Scalp::read(&bundle.read_mesh("head.scalp").unwrap()).unwrap();
+    let hair = load("groom_blender.usdc");
+    assert_eq!(bindings.len(), 48);
+    let head = hikage_bake::mesh::gltf::load_skinned(&data("character_blender.glb"), Default::default()).unwrap();
+    let sub = |a: [f32; 3], b: [f32; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    // The nearest point of triangle `t` to `p`, by projecting onto the plane and clamping the
+    // barycentric weights over a fine grid (a brute force, not the baker's algorithm).
+    let nearest = |[a, b, c]: [[f32; 3]; 3], p: [f32; 3]| -> f32 {
+        let mut best = f32::INFINITY;
+        for i in 0..=200 {
+            for j in 0..=(200 - i) {
+                let (u, v) = (i as f32 / 200.0, j as f32 / 200.0);
+                let q = [0, 1, 2].map(|k| a[k] + u * (b[k] - a[k]) + v * (c[k] - a[k]));
+                let d = sub(p, q);
+                best = best.min(dot(d, d).sqrt());
+            }
+        }
+        best
+    };
+    for (s, bind) in bindings.iter().enumerate() {
+        let root = hair.points[s * 8];
+        let bound = nearest(scalp.triangles[bind.triangle as usize].map(|i| scalp.positions[i as usize]), root);
+        let all = head.triangles.iter().map(|t| t.map(|i| head.positions[i as usize]));
+        let closest = all.map(|t| nearest(t, root)).fold(f32::INFINITY, f32::min);
+        assert!(bound <= closest + 1e-4, "strand {s}: bound {bound} m away, the nearest triangle {closest} m");
+        // A 24 × 12 sphere lies at most 1.8 mm inside the 0.1 m sphere the roots are on.
+        assert!(bound < 0.002, "strand {s}: root {bound} m from its triangle");
+    }
+}
