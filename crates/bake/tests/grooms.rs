@@ -229,3 +229,24 @@ fn a_blender_groom_binds_to_blenders_skinned_head() {
         assert!(bound < 0.002, "strand {s}: root {bound} m from its triangle");
     }
 }
+
+/// Layers a groom names are opened only when they are regular files: a sublayer that is
+/// missing, a FIFO (which would block the bake) or a device is an error naming it, not strands
+/// quietly left out.
+#[test]
+fn layers_the_stage_names_must_be_regular_files() {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("grooms");
+    std::fs::create_dir_all(&dir).unwrap();
+    let fifo = dir.join("pipe.usda");
+    let _ = std::fs::remove_file(&fifo);
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status().is_ok_and(|s| s.success());
+    let mut cases = vec![("missing.usda", "unresolved sublayer @missing.usda@"), ("/dev/zero", "/dev/zero")];
+    if made {
+        cases.push((fifo.to_str().unwrap(), "expected a regular file, found a FIFO"));
+    }
+    for (i, (layer, want)) in cases.into_iter().enumerate() {
+        let path = usda(&format!("sublayer_{i}.usda"), &format!("#usda 1.0\n(\n    subLayers = [@{layer}@]\n)\n"));
+        let e = error(&path);
+        assert!(e.contains(&format!("sublayer_{i}.usda")) && e.contains(want), "{layer}: {e}");
+    }
+}

@@ -15,14 +15,16 @@
 //!   ([`super::FileFrame`]); the job turns them into the bundle's frame.
 //!
 //! Every mistake names the file and the prim: no curves at all, counts that disagree with the
-//! points, a curve of one point, points or widths that are not finite, negative widths, a
-//! transform on a prim type the reader does not place.
+//! points, a curve of one point, points or widths that are not finite, negative widths. Layers
+//! the stage names (sublayers, references) are opened only when they are regular files within
+//! the size bound, and one that cannot be read is an error, not strands left out.
 
 use std::cell::Cell;
 use std::panic::AssertUnwindSafe;
 use std::path::Path;
 use std::sync::Once;
 
+use openusd::ar;
 use openusd::gf::{Matrix4d, Vec3f};
 use openusd::schemas::geom::{self, Curves, Imageable, PointBased, Xformable};
 use openusd::sdf;
@@ -50,14 +52,52 @@ pub fn load(path: &Path, limits: &HairLimits) -> Result<(Strands, FileFrame), Ba
     let text = path.to_str().ok_or_else(|| fail(None, "expected a path that is valid UTF-8".into()))?;
     // The parser is a third party's: a panic inside it is a malformed file, not a crash.
     let unreadable = || fail(None, "the USD parser could not read this file (it is damaged or not USD)".into());
-    let stage = match quietly(|| usd::Stage::open(text)) {
+    let resolver = Guarded { inner: ar::DefaultResolver::new(), max_bytes: limits.max_file_bytes() };
+    let stage = match quietly(|| usd::Stage::builder().resolver(resolver).open(text)) {
         Ok(Ok(stage)) => stage,
         Ok(Err(e)) => return Err(fail(None, format!("not a USD stage this reader can open: {e:#}"))),
         Err(()) => return Err(unreadable()),
     };
+    // A layer the stage names and could not read (missing, not a regular file, too large)
+    // would leave strands out without a word: it is an error.
+    if let Some(error) = stage.composition_errors().first() {
+        return Err(fail(None, format!("the stage could not be composed: {error}")));
+    }
     match quietly(|| read_stage(&stage, limits)) {
         Ok(result) => result.map_err(|(place, message)| fail(place, message)),
         Err(()) => Err(unreadable()),
+    }
+}
+
+/// The default resolver, opening only regular files within the strand-file size bound: a layer
+/// the groom names (a sublayer, a reference) cannot be a FIFO, a device or an oversized file.
+struct Guarded {
+    inner: ar::DefaultResolver,
+    max_bytes: u64,
+}
+
+impl ar::Resolver for Guarded {
+    fn create_identifier(&self, asset_path: &str, anchor: Option<&ar::ResolvedPath>) -> String {
+        self.inner.create_identifier(asset_path, anchor)
+    }
+
+    fn resolve(&self, asset_path: &str) -> Option<ar::ResolvedPath> {
+        self.inner.resolve(asset_path)
+    }
+
+    fn resolve_for_new_asset(&self, _: &str) -> Option<ar::ResolvedPath> {
+        None
+    }
+
+    fn open_asset(&self, resolved: &ar::ResolvedPath) -> std::io::Result<Box<dyn ar::Asset>> {
+        // A layer inside a package (`groom.usdz[inner.usdc]`) is read from the package's file.
+        let text = resolved.to_string_lossy();
+        let file = text.split_once(".usdz[").map_or_else(|| text.to_string(), |(outer, _)| format!("{outer}.usdz"));
+        let size = hikage_bundle::files::regular_metadata(Path::new(&file))?.len();
+        if size > self.max_bytes {
+            return Err(std::io::Error::other(format!("{file}: {size} bytes, above the limit of {}", self.max_bytes)));
+        }
+        self.inner.open_asset(resolved)
     }
 }
 
