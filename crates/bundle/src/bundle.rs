@@ -70,17 +70,7 @@ impl Bundle {
             message: format!("expected UTF-8 text: {e}"),
         })?;
         let manifest = parse_in(dir, &text, &limits)?;
-        if manifest.assets.len() > limits.max_assets {
-            return Err(BundleError::Limit {
-                path,
-                what: "asset count".into(),
-                value: manifest.assets.len() as u64,
-                limit: limits.max_assets as u64,
-            });
-        }
-        if let Some((asset, message)) = manifest_problems(&manifest, &limits).into_iter().next() {
-            return Err(BundleError::InvalidAsset { path, asset, message });
-        }
+        check_accepted(&manifest, &limits, &path, "asset count")?;
         Ok(Bundle { dir: dir.to_path_buf(), manifest, limits, _reading: reading })
     }
 
@@ -227,6 +217,24 @@ pub(crate) fn parse_in(dir: &Path, text: &str, limits: &Limits) -> Result<Manife
     Manifest::parse_with_tables(text, &path, limits, &mut |set| {
         crate::files::read_in_bundle(&dir.join(&set.table), set.byte_length, "tile table size")
     })
+}
+
+/// What a reader requires of a parsed manifest beyond its syntax: at most `limits.max_assets`
+/// assets (`what` names the count in the error), each well-formed. [`Bundle::open`] applies it,
+/// and the writer before it commits, so that a bundle written is a bundle that opens.
+pub(crate) fn check_accepted(manifest: &Manifest, limits: &Limits, path: &Path, what: &str) -> Result<(), BundleError> {
+    if manifest.assets.len() > limits.max_assets {
+        return Err(BundleError::Limit {
+            path: path.to_path_buf(),
+            what: what.into(),
+            value: manifest.assets.len() as u64,
+            limit: limits.max_assets as u64,
+        });
+    }
+    if let Some((asset, message)) = manifest_problems(manifest, limits).into_iter().next() {
+        return Err(BundleError::InvalidAsset { path: path.to_path_buf(), asset, message });
+    }
+    Ok(())
 }
 
 /// Problems visible from the manifest alone: ids, file names, duplicates, descriptions,

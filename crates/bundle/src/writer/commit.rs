@@ -273,17 +273,7 @@ impl BundleWriter {
 fn checked_manifest_text(dir: &Path, manifest: &Manifest) -> Result<(String, TableFiles), BundleError> {
     let limits = Limits::default();
     let path = dir.join(MANIFEST_FILE);
-    if let Some((asset, message)) = manifest_problems(manifest, &limits).into_iter().next() {
-        return Err(BundleError::InvalidAsset { path, asset, message });
-    }
-    if manifest.assets.len() > limits.max_assets {
-        return Err(BundleError::Limit {
-            path,
-            what: "the new manifest's asset count (readers accept no more)".into(),
-            value: manifest.assets.len() as u64,
-            limit: limits.max_assets as u64,
-        });
-    }
+    check_accepted(manifest, &limits, &path, "the new manifest's asset count (readers accept no more)")?;
     let (text, tables) = manifest.encode();
     if text.len() as u64 > limits.max_manifest_bytes {
         return Err(BundleError::Limit {

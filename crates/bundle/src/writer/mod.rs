@@ -41,7 +41,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use crate::asset::{Asset, Payload};
-use crate::bundle::{Bundle, READERS_LOCK_FILE, manifest_problems, reader_lock};
+use crate::bundle::{Bundle, READERS_LOCK_FILE, check_accepted, reader_lock};
 use crate::error::BundleError;
 use crate::limits::Limits;
 use crate::manifest::{MANIFEST_FILE, Manifest};
