@@ -15,7 +15,7 @@ fn read(reader: &str, path: &Path) -> Option<(&'static str, String)> {
     let bake = |e: hikage_bake::BakeError| (e.class(), e.to_string());
     let bundle = |e: hikage_bundle::BundleError| (e.class(), e.to_string());
     match reader {
-        "strands" => hikage_bake::strands::load(path).err().map(bake),
+        "strands" => hikage_bake::strands::load_groom(path, &Default::default()).err().map(bake),
         "heightfield" => hikage_bake::heightfield::load_samples(path, &Default::default()).err().map(bake),
         "pipeline" => hikage_bake::Pipeline::load(path).err().map(bake),
         "mesh" => hikage_bake::mesh::load(path, Default::default()).err().map(bake),
@@ -86,6 +86,7 @@ fn fuzz_regressions_replay_without_panicking() {
         ("ktx2", "ktx2"),
         ("pipeline", "pipeline"),
         ("../../data/grooms", "usd_groom"),
+        ("../../data/grooms", "alembic_groom"),
     ] {
         let run = hikage_devkit::fuzzing::TARGETS.iter().find(|t| t.0 == target).unwrap().1;
         for entry in std::fs::read_dir(corpus().join(dir)).unwrap() {

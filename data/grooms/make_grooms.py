@@ -169,6 +169,60 @@ def write_blender(strands):
     bpy.ops.wm.alembic_export(filepath=os.path.join(HERE, "groom_blender.abc"))
 
 
+GUIDES = 6
+MOVE = (0.0, 0.0, 0.05)  # how far the groom moves from frame 1 to frame 2, Blender's frame
+
+
+def write_blender_guides(strands):
+    """The groom as a character artist hands it over: two hair objects, each one group
+    (`groom_group_id` 0 for even strands, 1 for odd), and a guides object (`groom_guide`), under
+    a parent that moves between frames 1 and 2. Unreal's names are set both as curve attributes
+    (Blender's USD exporter writes them as primvars, with per-point `groom_color`) and as object
+    custom properties (all its Alembic exporter keeps of them: `.userProperties`)."""
+    import bpy
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    zup = lambda p: (p[0], -p[2], p[1])
+    rig = bpy.data.objects.new("character", None)
+    bpy.context.scene.collection.objects.link(rig)
+    rig.location = (0.0, 0.0, 0.0)
+    rig.keyframe_insert("location", frame=1)
+    rig.location = MOVE
+    rig.keyframe_insert("location", frame=2)
+
+    def hair_object(name, chosen, guide, group):
+        hair = bpy.data.hair_curves.new(name)
+        hair.add_curves([POINTS] * len(chosen))
+        flat = [c for st in chosen for p in st[0] for c in zup(at_head(p))]
+        hair.attributes["position"].data.foreach_set("vector", flat)
+        if "radius" not in hair.attributes:
+            hair.attributes.new("radius", "FLOAT", "POINT")
+        hair.attributes["radius"].data.foreach_set("value", [w / 2.0 for st in chosen for w in st[1]])
+        hair.attributes.new("groom_guide", "INT", "CURVE").data.foreach_set("value", [guide] * len(chosen))
+        hair.attributes.new("groom_group_id", "INT", "CURVE").data.foreach_set("value", [group] * len(chosen))
+        colors = [c for st in chosen for col in st[2] for c in (*col, 1.0)]
+        hair.attributes.new("groom_color", "FLOAT_COLOR", "POINT").data.foreach_set("color", colors)
+        obj = bpy.data.objects.new(name, hair)
+        obj["groom_guide"] = guide
+        obj["groom_group_id"] = group
+        obj.parent = rig
+        bpy.context.scene.collection.objects.link(obj)
+
+    hair_object("hair_even", strands[0::2], 0, 0)
+    hair_object("hair_odd", strands[1::2], 0, 1)
+    # Guides: every eighth strand, a little longer, as a groomer's guides are.
+    guides = [([tuple(1.05 * c for c in p) for p in st[0]], st[1], st[2]) for st in strands[:: STRANDS // GUIDES]]
+    hair_object("guides", guides, 1, 0)
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 2
+    bpy.ops.wm.usd_export(
+        filepath=os.path.join(HERE, "groom_guides_blender.usdc"), export_lights=False, export_animation=True
+    )
+    bpy.ops.wm.alembic_export(
+        filepath=os.path.join(HERE, "groom_guides_blender.abc"), start=1, end=2, export_custom_properties=True
+    )
+
+
 def write_character():
     """A skinned head for the groom's roots, as an artist would export it: a sphere of the
     groom's radius at the head's place, bound with automatic weights to a one-bone armature,
@@ -204,4 +258,5 @@ if __name__ == "__main__":
     write_hair(os.path.join(HERE, "groom.hair"), strands)
     write_usd(strands)
     write_blender(strands)
+    write_blender_guides(strands)
     write_character()

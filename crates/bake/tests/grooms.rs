@@ -25,12 +25,12 @@ fn worst<const N: usize>(a: &[[f32; N]], b: &[[f32; N]]) -> f32 {
 }
 
 #[test]
-fn one_groom_reads_the_same_from_hair_usda_usdc_and_blender() {
+fn one_groom_reads_the_same_from_hair_usd_alembic_and_blender() {
     let hair = load("groom.hair");
     assert_eq!(hair.segments, vec![7; 48]);
     let widths =
         |s: &Strands| -> Vec<[f32; 1]> { s.thickness.as_ref().expect("widths").iter().map(|&w| [w]).collect() };
-    for name in ["groom_linear.usda", "groom_cm_zup.usdc", "groom_blender.usdc"] {
+    for name in ["groom_linear.usda", "groom_cm_zup.usdc", "groom_blender.usdc", "groom_blender.abc"] {
         let usd = load(name);
         assert_eq!(usd.segments, hair.segments, "{name}");
         // Metres: a micrometre covers float rounding through centimetres, Z up and a parent
@@ -40,7 +40,7 @@ fn one_groom_reads_the_same_from_hair_usda_usdc_and_blender() {
         assert!(dp < 1e-6, "{name}: points differ by {dp} m");
         assert!(dw < 1e-9, "{name}: widths differ by {dw} m");
         assert!((usd.default_thickness - hair.default_thickness).abs() < 1e-9, "{name}");
-        if name != "groom_blender.usdc" {
+        if !name.starts_with("groom_blender") {
             // Blender's exporter writes its own displayColor, not the script's colours.
             let dc = worst(usd.color.as_ref().expect("colours"), hair.color.as_ref().expect("colours"));
             assert!(dc < 1e-6, "{name}: colours differ by {dc}");
@@ -83,6 +83,76 @@ fn widths_and_colours_in_every_interpolation() {
     assert_eq!(s.color, None);
 }
 
+/// For each strand of `s`, the strand of `reference` with the same points (within `tol`); each
+/// reference strand is matched at most once.
+fn match_strands(s: &Strands, reference: &Strands, tol: f32, name: &str) -> Vec<usize> {
+    let points = |s: &Strands, i: usize| s.points[8 * i..8 * i + 8].to_vec();
+    let mut taken = vec![false; reference.segments.len()];
+    (0..s.segments.len())
+        .map(|i| {
+            let own = points(s, i);
+            let j = (0..reference.segments.len())
+                .find(|&j| !taken[j] && worst(&own, &points(reference, j)) < tol)
+                .unwrap_or_else(|| panic!("{name}: strand {i} ({:?}…) is none of the reference's", own[0]));
+            taken[j] = true;
+            j
+        })
+        .collect()
+}
+
+/// A groom as a character artist hands it over, from Blender as USD and as Alembic: two hair
+/// objects (groups 0 and 1: the even and the odd strands), a guides object, per-point
+/// `groom_color` (USD only: Blender's Alembic exporter drops curve attributes), and a parent
+/// that moves 5 cm up between frames 1 and 2.
+#[test]
+fn guides_groups_colours_and_time_from_blender() {
+    let hair = load("groom.hair");
+    let colors = |s: &Strands, i: usize| s.color.as_ref().expect("colours")[8 * i..8 * i + 8].to_vec();
+    for name in ["groom_guides_blender.usdc", "groom_guides_blender.abc"] {
+        // Every strand but the guides, each the .hair file's, with its widths.
+        let s = load(name);
+        assert_eq!(s.segments, vec![7; 48], "{name}: the guides are left out");
+        let mut matched = match_strands(&s, &hair, 1e-6, name);
+        let widths = |s: &Strands, i: usize| s.thickness.as_ref().expect("widths")[8 * i..8 * i + 8].to_vec();
+        for (i, &j) in matched.iter().enumerate() {
+            assert_eq!(widths(&s, i), widths(&hair, j), "{name}: strand {i}");
+            if name.ends_with(".usdc") {
+                let d = worst(&colors(&s, i), &colors(&hair, j));
+                assert!(d < 1e-6, "{name}: strand {i}'s groom_color differs by {d}");
+            }
+        }
+        matched.sort_unstable();
+        assert_eq!(matched, (0..48).collect::<Vec<_>>(), "{name}");
+
+        // One group: the odd strands alone.
+        let mut job = StrandsJob::new("groom", data(name));
+        job.options.group = Some(1);
+        let odd = job.load(&data(name)).unwrap();
+        let mut matched = match_strands(&odd, &hair, 1e-6, name);
+        matched.sort_unstable();
+        assert_eq!(matched, (1..48).step_by(2).collect::<Vec<_>>(), "{name}: group 1");
+        job.options.group = Some(5);
+        let e = job.load(&data(name)).unwrap_err().to_string();
+        assert!(e.contains(name) && e.contains("no strand in group 5") && e.contains("[0, 1]"), "{e}");
+
+        // Frame 2 (2/24 s): the parent's move, 5 cm up in the bundle's frame.
+        job.options.group = None;
+        job.options.time = Some(2.0 / 24.0);
+        let later = job.load(&data(name)).unwrap();
+        let moved = Strands { points: s.points.iter().map(|p| [p[0], p[1] + 0.05, p[2]]).collect(), ..s.clone() };
+        let d = worst(&later.points, &moved.points);
+        assert!(d < 1e-6, "{name}: at frame 2 the points are off the moved ones by {d} m");
+        // Between frames, Alembic takes the nearer sample and USD interpolates, as each format's
+        // own readers do.
+        job.options.time = Some(1.4 / 24.0);
+        let between = job.load(&data(name)).unwrap();
+        let rise = if name.ends_with(".abc") { 0.0 } else { 0.4 * 0.05 };
+        let want: Vec<[f32; 3]> = s.points.iter().map(|p| [p[0], p[1] + rise, p[2]]).collect();
+        let d = worst(&between.points, &want);
+        assert!(d < 1e-6, "{name}: at frame 1.4 the points are off by {d} m");
+    }
+}
+
 /// A `.usda` file in a scratch directory.
 fn usda(name: &str, text: &str) -> PathBuf {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("grooms");
@@ -123,7 +193,7 @@ fn mistakes_are_named_with_the_file_and_the_prim() {
             format!(
                 "        int[] curveVertexCounts = [2, 2]\n{points}\n        float[] widths = [0.1, -0.1, 0.1, 0.1] (interpolation = \"vertex\")"
             ),
-            "width 1 is -0.1",
+            "widths[1] is -0.1",
         ),
         (
             "short_widths.usda",

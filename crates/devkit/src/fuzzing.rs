@@ -91,8 +91,28 @@ pub fn usd_groom(data: &[u8]) {
     for name in ["groom.usda", "groom.usdc"] {
         let path = scratch().join(name);
         if std::fs::write(&path, data).is_ok()
-            && let Ok((s, _)) = hikage_bake::strands::usd::load(&path, &limits)
+            && let Ok((s, _)) = hikage_bake::strands::usd::load(&path, &Default::default(), &limits)
         {
+            let sets = hikage_bake::strands::strips::StripSets::from_source(&s);
+            let _ = hikage_bake::strands::strips::build(&s, &sets);
+        }
+    }
+}
+
+/// Alembic bytes → [`hikage_bake::strands::alembic::load`] (at the first sample and at a named
+/// time), and strips of what it accepts (files up to 1 MiB).
+pub fn alembic_groom(data: &[u8]) {
+    if data.len() > 1 << 20 {
+        return;
+    }
+    let limits = hikage_bake::strands::cyhair::HairLimits { max_strands: 100_000, max_points: 1_000_000 };
+    let path = scratch().join("groom.abc");
+    if std::fs::write(&path, data).is_err() {
+        return;
+    }
+    for time in [None, Some(1.0)] {
+        let read = hikage_bake::strands::GroomRead { time, group: None };
+        if let Ok((s, _)) = hikage_bake::strands::alembic::load(&path, &read, &limits) {
             let sets = hikage_bake::strands::strips::StripSets::from_source(&s);
             let _ = hikage_bake::strands::strips::build(&s, &sets);
         }
@@ -201,13 +221,14 @@ pub fn cache_entry(data: &[u8]) {
 pub type Target = fn(&[u8]);
 
 /// The targets by name, for the regression replay.
-pub const TARGETS: [(&str, Target); 11] = [
+pub const TARGETS: [(&str, Target); 12] = [
     ("manifest", manifest),
     ("bundle", bundle),
     ("ktx2", ktx2),
     ("hair", hair),
     ("obj_polylines", obj_polylines),
     ("usd_groom", usd_groom),
+    ("alembic_groom", alembic_groom),
     ("pipeline", pipeline),
     ("heightfield", heightfield),
     ("mesh", mesh),

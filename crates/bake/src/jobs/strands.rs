@@ -32,8 +32,9 @@ pub struct StrandsJob {
     /// Prefix of the asset ids.
     #[cfg_attr(feature = "clap", arg(skip))]
     pub id: String,
-    /// A USD groom (`.usd`, `.usda`, `.usdc`, `.usdz`: every `BasisCurves` prim), a Cem Yuksel
-    /// `.hair` file (by its signature) or Wavefront OBJ with `l` polylines.
+    /// A USD groom (`.usd`, `.usda`, `.usdc`, `.usdz`: every `BasisCurves` prim), an Alembic
+    /// groom (`.abc`: every curves object), a Cem Yuksel `.hair` file (by its signature) or
+    /// Wavefront OBJ with `l` polylines.
     pub input: PathBuf,
     /// The job's own settings.
     #[cfg_attr(feature = "clap", command(flatten))]
@@ -88,13 +89,23 @@ pub struct StrandsOptions {
     #[cfg_attr(feature = "clap", arg(long, value_name = "DISTANCE"))]
     pub scalp_distance: Option<f32>,
     /// Metres per unit of the input's coordinates and widths: the strands are scaled by it
-    /// (default: the file's own, USD `metersPerUnit`; 1 for `.hair` and OBJ, which do not say).
+    /// (default: the file's own, USD `metersPerUnit`; 1 for Alembic, `.hair` and OBJ, which do
+    /// not say).
     #[cfg_attr(feature = "clap", arg(long, value_name = "METRES"))]
     pub units: Option<f32>,
     /// The input's up axis, turned into the bundle's +Y (default: the file's own, USD `upAxis`;
-    /// Y for `.hair` and OBJ).
+    /// Y for Alembic, `.hair` and OBJ).
     #[cfg_attr(feature = "clap", arg(long, value_enum))]
     pub up: Option<UpAxis>,
+    /// The time to read from a USD or Alembic groom, seconds: Alembic's sample nearest it, USD's
+    /// value at it (interpolated between samples, as USD does); default: the file's default
+    /// time, or its first sample.
+    #[cfg_attr(feature = "clap", arg(long, value_name = "SECONDS"))]
+    pub time: Option<f64>,
+    /// Bake only this group of a groom (Unreal's `groom_group_id`; strands without one are
+    /// group 0): one job per group gives one asset per group (default: every group, one asset).
+    #[cfg_attr(feature = "clap", arg(long, value_name = "ID"))]
+    pub group: Option<i32>,
     /// Payload compression: `Auto` (a zstd level per kind of payload, `--zstd auto`), `Zstd(level)`
     /// (1–22), or `None` (`--zstd 0`).
     #[cfg_attr(
@@ -213,7 +224,8 @@ impl StrandsJob {
     /// The input's strands in the bundle's frame: scaled by `units` (else the file's metres per
     /// unit, else 1) and turned from `up` (else the file's up axis, else Y) to +Y.
     pub fn load(&self, path: &Path) -> Result<Strands, BakeError> {
-        let (mut s, frame) = strands::load_groom(path)?;
+        let read = strands::GroomRead { time: self.options.time, group: self.options.group };
+        let (mut s, frame) = strands::load_groom(path, &read)?;
         let units = self.options.units.or(frame.meters_per_unit).unwrap_or(1.0);
         let up = self.options.up.or(frame.up).unwrap_or(UpAxis::Y);
         if units != 1.0 {

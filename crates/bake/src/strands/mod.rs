@@ -1,9 +1,11 @@
 //! Hair and fur strands: polylines with optional per-point thickness, transparency and colour,
-//! read from Cem Yuksel's `.hair` format ([`cyhair`]), OBJ polylines ([`obj`]) or, with the `usd`
-//! feature, USD `BasisCurves` ([`usd`]).
+//! read from Cem Yuksel's `.hair` format ([`cyhair`]), OBJ polylines ([`obj`]), Alembic curves
+//! ([`alembic`]) or, with the `usd` feature, USD `BasisCurves` ([`usd`]).
 
+pub mod alembic;
 pub mod auto;
 pub mod bind;
+mod curves;
 pub mod cyhair;
 pub mod obj;
 pub mod ribbons;
@@ -58,6 +60,18 @@ pub struct FileFrame {
     pub up: Option<UpAxis>,
 }
 
+/// What a job reads of a groom file beyond its strands (USD and Alembic; `.hair` and OBJ hold
+/// one time and no groups).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GroomRead {
+    /// The time to read, seconds: Alembic's sample nearest it, USD's value at it (interpolated
+    /// between samples); `None`: the file's default time, or its first sample.
+    pub time: Option<f64>,
+    /// Keep only the strands of this group (Unreal's `groom_group_id`; strands without one are
+    /// group 0); `None`: every group.
+    pub group: Option<i32>,
+}
+
 /// Whether `path` names a USD file (by its extension: USD files may be text or binary).
 pub fn is_usd(path: &Path) -> bool {
     path.extension()
@@ -65,25 +79,20 @@ pub fn is_usd(path: &Path) -> bool {
         .is_some_and(|e| ["usd", "usda", "usdc", "usdz"].iter().any(|u| e.eq_ignore_ascii_case(u)))
 }
 
-/// Reads strands and the frame the file states: USD by its extension, a `.hair` file by its
-/// `HAIR`/`hair` signature, OBJ polylines otherwise.
-pub fn load_groom(path: &Path) -> Result<(Strands, FileFrame), BakeError> {
+/// Reads strands and the frame the file states: USD and Alembic by their extensions, a `.hair`
+/// file by its `HAIR`/`hair` signature, OBJ polylines otherwise.
+pub fn load_groom(path: &Path, read: &GroomRead) -> Result<(Strands, FileFrame), BakeError> {
     if is_usd(path) {
-        return load_usd(path);
+        return load_usd(path, read);
     }
     if path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("abc")) {
-        return Err(BakeError::input(
-            path,
-            None,
-            "an Alembic archive: this version reads grooms as USD, .hair or OBJ; export the groom as USD \
-             (Blender: File > Export > Universal Scene Description)",
-        ));
+        return alembic::load(path, read, &HairLimits::default());
     }
     load(path).map(|s| (s, FileFrame::default()))
 }
 
 #[cfg(feature = "usd")]
-fn load_usd(path: &Path) -> Result<(Strands, FileFrame), BakeError> {
+fn load_usd(path: &Path, read: &GroomRead) -> Result<(Strands, FileFrame), BakeError> {
     let limits = HairLimits::default();
     // The parser reads the whole file: its size is bounded first, like a `.hair` file's.
     let (size, limit) = (
@@ -93,11 +102,11 @@ fn load_usd(path: &Path) -> Result<(Strands, FileFrame), BakeError> {
     if size > limit {
         return Err(BakeError::Limit { path: path.into(), what: "strand file size".into(), value: size, limit });
     }
-    usd::load(path, &limits)
+    usd::load(path, read, &limits)
 }
 
 #[cfg(not(feature = "usd"))]
-fn load_usd(path: &Path) -> Result<(Strands, FileFrame), BakeError> {
+fn load_usd(path: &Path, _: &GroomRead) -> Result<(Strands, FileFrame), BakeError> {
     Err(BakeError::input(
         path,
         None,

@@ -30,8 +30,9 @@ use openusd::schemas::geom::{self, Curves, Imageable, PointBased, Xformable};
 use openusd::sdf;
 use openusd::usd::{self, Prim, SchemaBase, SchemaKind};
 
+use super::curves::{self, CurveSet, Interpolation, Problem};
 use super::cyhair::HairLimits;
-use super::{FileFrame, Strands, UpAxis};
+use super::{FileFrame, GroomRead, Strands, UpAxis};
 use crate::error::BakeError;
 
 /// Any prim, seen as transformable: its `xformOp`s are read whatever its type.
@@ -47,7 +48,7 @@ impl Imageable for Placed {}
 impl Xformable for Placed {}
 
 /// Reads every `BasisCurves` prim of the stage at `path`.
-pub fn load(path: &Path, limits: &HairLimits) -> Result<(Strands, FileFrame), BakeError> {
+pub fn load(path: &Path, read: &GroomRead, limits: &HairLimits) -> Result<(Strands, FileFrame), BakeError> {
     let fail = |place: Option<String>, message: String| BakeError::input(path, place, message);
     let text = path.to_str().ok_or_else(|| fail(None, "expected a path that is valid UTF-8".into()))?;
     // The parser is a third party's: a panic inside it is a malformed file, not a crash.
@@ -63,7 +64,7 @@ pub fn load(path: &Path, limits: &HairLimits) -> Result<(Strands, FileFrame), Ba
     if let Some(error) = stage.composition_errors().first() {
         return Err(fail(None, format!("the stage could not be composed: {error}")));
     }
-    match quietly(|| read_stage(&stage, limits)) {
+    match quietly(|| read_stage(&stage, read, limits)) {
         Ok(result) => result.map_err(|(place, message)| fail(place, message)),
         Err(()) => Err(unreadable()),
     }
@@ -125,56 +126,28 @@ fn quietly<T>(f: impl FnOnce() -> T) -> Result<T, ()> {
     result.map_err(drop)
 }
 
-/// What is wrong, and at which prim (or `None`: the file).
-type Problem = (Option<String>, String);
-
-fn read_stage(stage: &usd::Stage, limits: &HairLimits) -> Result<(Strands, FileFrame), Problem> {
+fn read_stage(stage: &usd::Stage, read: &GroomRead, limits: &HairLimits) -> Result<(Strands, FileFrame), Problem> {
     let whole = |e: anyhow::Error| (None, format!("{e:#}"));
     let mut paths = Vec::new();
     stage.traverse(usd::PrimPredicate::default(), |p| paths.push(p.clone())).map_err(whole)?;
-    let mut out = Strands {
-        segments: Vec::new(),
-        points: Vec::new(),
-        thickness: Some(Vec::new()),
-        transparency: None,
-        color: Some(Vec::new()),
-        default_thickness: 0.0,
-        default_transparency: 0.0,
-        default_color: [1.0; 3],
+    // The job's time is in seconds; the stage's in time codes.
+    let time = match read.time {
+        None => None,
+        Some(t) => Some(usd::TimeCode::new(
+            t * stage_number(stage, "timeCodesPerSecond").map_err(whole)?.unwrap_or(24.0) as f64,
+        )),
     };
-    let (mut widths_everywhere, mut colors_everywhere, mut prims) = (true, true, 0);
+    let (mut sets, mut points) = (Vec::new(), 0);
     for path in &paths {
         let Some(curves) = geom::BasisCurves::get(stage, path.clone()).map_err(whole)? else { continue };
-        prims += 1;
-        let at = |message: String| (Some(format!("prim {path}")), message);
-        let got = read_curves(&curves, limits, out.points.len() as u64).map_err(at)?;
-        out.segments.extend(got.counts.iter().map(|&n| (n - 1) as u16));
-        out.points.extend(got.points);
-        match got.widths {
-            Some(w) => out.thickness.get_or_insert_with(Vec::new).extend(w),
-            None => widths_everywhere = false,
-        }
-        match got.colors {
-            Some(c) => out.color.get_or_insert_with(Vec::new).extend(c),
-            None => colors_everywhere = false,
-        }
+        let set = read_curves(&curves, time, limits, points).map_err(|m| (Some(format!("prim {path}")), m))?;
+        points += set.points.len() as u64;
+        sets.push(set);
     }
-    if prims == 0 {
+    if sets.is_empty() {
         return Err((None, "no BasisCurves prim: expected a groom exported as USD curves".into()));
     }
-    if out.segments.len() as u64 > limits.max_strands {
-        return Err((None, format!("{} strands, above the limit of {}", out.segments.len(), limits.max_strands)));
-    }
-    // A stage whose prims disagree (widths on some only) keeps what every prim has.
-    if !widths_everywhere {
-        out.thickness = None;
-    }
-    // The job's widths are a strand of the default thickness's: the widest point's, so the
-    // shading set's width is the groom's widest and every point's own scales it.
-    out.default_thickness = out.thickness.iter().flatten().fold(0.0, |m: f32, &w| m.max(w));
-    if !colors_everywhere {
-        out.color = None;
-    }
+    let out = curves::gather(sets, read.group, limits)?;
     let frame = FileFrame {
         meters_per_unit: stage_number(stage, "metersPerUnit").map_err(whole)?,
         up: match stage.stage_metadata("upAxis").map_err(whole)? {
@@ -196,34 +169,24 @@ fn stage_number(stage: &usd::Stage, key: &str) -> anyhow::Result<Option<f32>> {
     })
 }
 
-/// One prim's curves, in the stage's world frame.
-struct Read {
-    counts: Vec<usize>,
-    points: Vec<[f32; 3]>,
-    widths: Option<Vec<f32>>,
-    colors: Option<Vec<[f32; 3]>>,
-}
-
-fn read_curves(curves: &geom::BasisCurves, limits: &HairLimits, before: u64) -> Result<Read, String> {
+/// One prim's curves, in the stage's world frame, at `time` (else the default time).
+fn read_curves(
+    curves: &geom::BasisCurves,
+    time: Option<usd::TimeCode>,
+    limits: &HairLimits,
+    before: u64,
+) -> Result<CurveSet, String> {
     let e = |e: anyhow::Error| format!("{e:#}");
-    let counts = match value(&curves.curve_vertex_counts_attr()).map_err(e)? {
+    let value = |attr: &usd::Attribute| value(attr, time).map_err(e);
+    let counts = match value(&curves.curve_vertex_counts_attr())? {
         Some(sdf::Value::IntVec(c)) => c,
         Some(other) => return Err(format!("curveVertexCounts is {}: expected int[]", kind(&other))),
         None => return Err("no curveVertexCounts".into()),
     };
-    let local = vectors(value(&curves.points_attr()).map_err(e)?, "points")?.ok_or("no points")?;
-    let total: u64 = counts.iter().map(|&c| c.max(0) as u64).sum();
-    if before + total > limits.max_points {
-        return Err(format!("{} points in all, above the limit of {}", before + total, limits.max_points));
-    }
-    if total != local.len() as u64 {
-        return Err(format!("curveVertexCounts add up to {total} points, but points holds {}", local.len()));
-    }
-    if let Some((i, &c)) = counts.iter().enumerate().find(|(_, c)| !(2..=65536).contains(*c)) {
-        return Err(format!("curve {i} has {c} points: expected 2 to 65536"));
-    }
-    let counts: Vec<usize> = counts.iter().map(|&c| c as usize).collect();
-    let world = world_transform(curves.prim())?;
+    let local = vectors(value(&curves.points_attr())?, "points")?.ok_or("no points")?;
+    let counts: Vec<i64> = counts.iter().map(|&c| c as i64).collect();
+    let counts = curves::check_counts(&counts, local.len() as u64, before, limits)?;
+    let world = world_transform(curves.prim(), time.unwrap_or(usd::TimeCode::EARLIEST))?;
     let mut points = Vec::with_capacity(local.len());
     for (i, p) in local.iter().enumerate() {
         let q = world.transform_point(*p);
@@ -238,39 +201,74 @@ fn read_curves(curves: &geom::BasisCurves, limits: &HairLimits, before: u64) -> 
         let x = |x, y, z| world.transform_vec(Vec3f { x, y, z });
         (axis(x(1.0, 0.0, 0.0)) * axis(x(0.0, 1.0, 0.0)) * axis(x(0.0, 0.0, 1.0))).cbrt()
     };
-    let widths_attr = curves.widths_attr();
-    let widths = match value(&widths_attr).map_err(e)? {
-        None => None,
-        Some(sdf::Value::FloatVec(w)) => {
-            let w = spread(&w, &interpolation(&widths_attr)?, &counts, "widths")?;
-            if let Some((i, v)) = w.iter().enumerate().find(|(_, v)| !(v.is_finite() && **v >= 0.0)) {
-                return Err(format!("width {i} is {v}: expected a finite width of 0 or more"));
+    // Unreal's groom attributes, as Blender writes them (`primvars:groom_*`), before USD's own.
+    let prim = curves.prim();
+    let first = |names: [(&'static str, usd::Attribute); 2]| -> Result<_, String> {
+        for (name, attr) in names {
+            if let Some(v) = value(&attr)? {
+                return Ok(Some((name, attr, v)));
             }
+        }
+        Ok(None)
+    };
+    let widths = match first([
+        ("primvars:groom_width", prim.attribute("primvars:groom_width")),
+        ("widths", curves.widths_attr()),
+    ])? {
+        None => None,
+        Some((name, attr, sdf::Value::FloatVec(w))) => {
+            let w = curves::spread(&w, interpolation(&attr, name)?, &counts, name)?;
+            curves::check_widths(&w, name)?;
             Some(w.iter().map(|v| v * scale).collect())
         }
-        Some(other) => return Err(format!("widths is {}: expected float[]", kind(&other))),
+        Some((name, _, other)) => return Err(format!("{name} is {}: expected float[]", kind(&other))),
     };
-    let color_attr = curves.prim().attribute("primvars:displayColor");
-    let colors = match vectors(value(&color_attr).map_err(e)?, "primvars:displayColor")? {
+    let colors = match first([
+        ("primvars:groom_color", prim.attribute("primvars:groom_color")),
+        ("primvars:displayColor", prim.attribute("primvars:displayColor")),
+    ])? {
         None => None,
-        Some(c) => {
-            let c: Vec<[f32; 3]> = c.iter().map(|v| [v.x, v.y, v.z]).collect();
-            let c = spread(&c, &interpolation(&color_attr)?, &counts, "primvars:displayColor")?;
-            if let Some((i, v)) = c.iter().enumerate().find(|(_, v)| !v.iter().all(|c| c.is_finite())) {
-                return Err(format!("displayColor {i} is {v:?}: expected finite components"));
-            }
+        Some((name, attr, v)) => {
+            let c = colors(v, name)?;
+            let c = curves::spread(&c, interpolation(&attr, name)?, &counts, name)?;
+            curves::check_colors(&c, name)?;
             Some(c)
         }
     };
-    Ok(Read { counts, points, widths, colors })
+    let ints = |name: &str| -> Result<Option<Vec<i32>>, String> {
+        match value(&prim.attribute(name))? {
+            None => Ok(None),
+            Some(sdf::Value::IntVec(v)) => curves::per_curve(&v, &counts, name).map(Some),
+            Some(sdf::Value::Int(v)) => Ok(Some(vec![v; counts.len()])),
+            Some(sdf::Value::BoolVec(v)) => {
+                curves::per_curve(&v, &counts, name).map(|v| Some(v.iter().map(|&b| b as i32).collect()))
+            }
+            Some(other) => Err(format!("{name} is {}: expected int[]", kind(&other))),
+        }
+    };
+    let guides = ints("primvars:groom_guide")?.map(|g| g.iter().map(|&v| v != 0).collect());
+    let groups = ints("primvars:groom_group_id")?;
+    Ok(CurveSet { counts, points, widths, colors, guides, groups })
 }
 
-/// An attribute's value at the default time, or its first time sample when only samples are
-/// authored.
-fn value(attr: &usd::Attribute) -> anyhow::Result<Option<sdf::Value>> {
+/// An attribute's value at `time`; without one, at the default time, or its first time sample
+/// when only samples are authored.
+fn value(attr: &usd::Attribute, time: Option<usd::TimeCode>) -> anyhow::Result<Option<sdf::Value>> {
+    if let Some(time) = time {
+        return attr.get_at::<sdf::Value>(time);
+    }
     match attr.get::<sdf::Value>()? {
         Some(v) => Ok(Some(v)),
         None => attr.get_at::<sdf::Value>(usd::TimeCode::EARLIEST),
+    }
+}
+
+/// A colour value (`color3f[]`, `color4f[]` as Blender writes its colour attributes, doubles
+/// narrowed), as linear RGB.
+fn colors(value: sdf::Value, name: &str) -> Result<Vec<[f32; 3]>, String> {
+    match value {
+        sdf::Value::Vec4fVec(v) => Ok(v.iter().map(|c| [c.x, c.y, c.z]).collect()),
+        other => Ok(vectors(Some(other), name)?.unwrap_or_default().iter().map(|c| [c.x, c.y, c.z]).collect()),
     }
 }
 
@@ -294,36 +292,19 @@ fn kind(value: &sdf::Value) -> String {
 
 /// A primvar's `interpolation` (`vertex` when not authored, as USD's fallback for widths on
 /// curves says).
-fn interpolation(attr: &usd::Attribute) -> Result<String, String> {
+fn interpolation(attr: &usd::Attribute, name: &str) -> Result<Interpolation, String> {
     let token = attr.get_metadata::<openusd::tf::Token>("interpolation").map_err(|e| format!("{e:#}"))?;
-    Ok(token.map_or_else(|| "vertex".into(), |t| t.as_str().to_string()))
-}
-
-/// Values of a primvar given at `interpolation`, one per point of curves of `counts` points.
-fn spread<T: Copy>(values: &[T], interpolation: &str, counts: &[usize], name: &str) -> Result<Vec<T>, String> {
-    let points: usize = counts.iter().sum();
-    let wrong = |want: usize| {
-        format!("{name} holds {} values for {interpolation} interpolation, expected {want}", values.len())
-    };
-    match interpolation {
-        "constant" => match values {
-            [v] => Ok(vec![*v; points]),
-            _ => Err(wrong(1)),
-        },
-        "uniform" if values.len() == counts.len() => {
-            Ok(counts.iter().zip(values).flat_map(|(&n, v)| std::iter::repeat_n(*v, n)).collect())
-        }
-        "uniform" => Err(wrong(counts.len())),
-        // Varying values sit at segment ends; with control points taken as points, they are
-        // the points' own when there is one a point.
-        "vertex" | "varying" if values.len() == points => Ok(values.to_vec()),
-        "vertex" | "varying" => Err(wrong(points)),
+    match token.as_ref().map_or("vertex", |t| t.as_str()) {
+        "constant" => Ok(Interpolation::Constant),
+        "uniform" => Ok(Interpolation::Uniform),
+        "varying" => Ok(Interpolation::Varying),
+        "vertex" => Ok(Interpolation::Vertex),
         other => Err(format!("{name} has interpolation {other:?}: expected constant, uniform, varying or vertex")),
     }
 }
 
 /// The transform from `prim`'s space to the stage's world (row vectors: `p · M`).
-fn world_transform(prim: &Prim) -> Result<Matrix4d, String> {
+fn world_transform(prim: &Prim, time: usd::TimeCode) -> Result<Matrix4d, String> {
     let e = |e: anyhow::Error| format!("{e:#}");
     let mut m = Matrix4d::IDENTITY;
     let mut at = Some(prim.path().clone());
@@ -332,7 +313,7 @@ fn world_transform(prim: &Prim) -> Result<Matrix4d, String> {
             break;
         }
         let placed = Placed(prim.stage().prim(path.clone()));
-        m = m * placed.local_to_parent_transform(usd::TimeCode::EARLIEST).map_err(e)?;
+        m = m * placed.local_to_parent_transform(time).map_err(e)?;
         if placed.resets_xform_stack().map_err(e)? {
             break;
         }
