@@ -139,11 +139,6 @@ impl<'a> Archive<'a> {
         Ok(Archive { file, metadata, times, top })
     }
 
-    /// The file's length in bytes.
-    pub(super) fn len(&self) -> u64 {
-        self.file.len()
-    }
-
     fn indexed(&self, index: u32, cursor: &mut Cursor, hint: Option<u32>) -> Result<String, String> {
         if index == 0xff {
             let n = match hint {

@@ -38,7 +38,7 @@ pub fn load(path: &Path, read: &GroomRead, limits: &HairLimits) -> Result<(Stran
     let bytes = hikage_bundle::files::read_limited(path, limits.max_file_bytes(), "strand file size")?;
     let fail = |(place, message): Problem| BakeError::input(path, place, message);
     let archive = Archive::open(&bytes).map_err(|m| fail((None, m)))?;
-    let mut walk = Walk { archive: &archive, read, limits, sets: Vec::new(), points: 0, stack: Vec::new(), visits: 0 };
+    let mut walk = Walk { archive: &archive, read, limits, sets: Vec::new(), points: 0, stack: Vec::new() };
     let top = Object { name: String::new(), metadata: String::new(), group: archive.top };
     walk.visit(&top, "", DMat4::IDENTITY, Tags::default()).map_err(fail)?;
     let strands = curves::gather(walk.sets, read.group, limits).map_err(fail)?;
@@ -65,9 +65,6 @@ struct Walk<'a, 'b> {
     points: u64,
     /// The groups of the objects being visited, to refuse a cycle.
     stack: Vec<u64>,
-    /// Objects visited, against what the file can hold (a group shared many times over would
-    /// otherwise be visited without end).
-    visits: u64,
 }
 
 impl Walk<'_, '_> {
@@ -77,12 +74,8 @@ impl Walk<'_, '_> {
         if self.stack.contains(&object.group) {
             return Err(at("the archive is cyclic: this object contains itself".into()));
         }
-        self.visits += 1;
-        if self.visits > self.archive.len() / 8 || self.stack.len() >= MAX_DEPTH {
-            return Err(at(format!(
-                "more objects, or deeper, than a well-formed archive of {} bytes holds",
-                self.archive.len()
-            )));
+        if self.stack.len() >= MAX_DEPTH {
+            return Err(at(format!("objects nested deeper than {MAX_DEPTH} levels")));
         }
         let (props, below) = self.archive.object(object.group).map_err(at)?;
         let props = self.archive.properties(props).map_err(at)?;

@@ -1,6 +1,12 @@
 //! Ogawa, the container under Alembic files: a tree of groups (lists of child offsets) and data
 //! blocks (length-prefixed bytes), read from the file's bytes with every offset and length
 //! checked against the file before anything is allocated.
+//!
+//! A hostile file can make one block the child of many groups, so that a reader walking the
+//! tree reads it again and again; the bytes read are counted against a multiple of the file's
+//! length, which a well-formed archive (each block read about once) stays far below.
+
+use std::cell::Cell;
 
 /// A child of a group: another group or a data block, by its offset in the file (0: empty).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -14,7 +20,12 @@ pub(super) enum Node {
 /// An Ogawa file's bytes.
 pub(super) struct Ogawa<'a> {
     bytes: &'a [u8],
+    /// Bytes of groups and data read so far, against [`Ogawa::budget`].
+    read: Cell<u64>,
 }
+
+/// How many times over its own length a file's blocks may be read.
+const REREADS: u64 = 16;
 
 /// The high bit of a child offset: set for a data block.
 const DATA_BIT: u64 = 1 << 63;
@@ -35,7 +46,7 @@ impl<'a> Ogawa<'a> {
         if version != 1 {
             return Err(format!("Ogawa version {version}: expected 1"));
         }
-        let file = Ogawa { bytes };
+        let file = Ogawa { bytes, read: Cell::new(0) };
         let root = file.u64_at(8)?;
         Ok((file, root))
     }
@@ -43,6 +54,25 @@ impl<'a> Ogawa<'a> {
     /// The file's length in bytes.
     pub(super) fn len(&self) -> u64 {
         self.bytes.len() as u64
+    }
+
+    /// The most bytes of blocks a walk of this file may read.
+    fn budget(&self) -> u64 {
+        REREADS * self.len() + (1 << 20)
+    }
+
+    /// Counts `n` bytes read, failing once the walk has read more than a well-formed archive's.
+    fn charge(&self, n: u64) -> Result<(), String> {
+        let read = self.read.get().saturating_add(n);
+        self.read.set(read);
+        if read > self.budget() {
+            return Err(format!(
+                "the archive's blocks are shared so that reading it takes over {REREADS} times its {} bytes \
+                 (a malformed or hostile file)",
+                self.len()
+            ));
+        }
+        Ok(())
     }
 
     fn u64_at(&self, at: u64) -> Result<u64, String> {
@@ -61,6 +91,7 @@ impl<'a> Ogawa<'a> {
         if count > room {
             return Err(format!("the group at byte {offset} claims {count} children; the file holds room for {room}"));
         }
+        self.charge(8 + 8 * count)?;
         (0..count)
             .map(|i| {
                 let v = self.u64_at(offset + 8 + 8 * i)?;
@@ -79,6 +110,7 @@ impl<'a> Ogawa<'a> {
         if size > room {
             return Err(format!("the data at byte {offset} claims {size} bytes; the file holds {room} after it"));
         }
+        self.charge(8 + size)?;
         let start = (offset + 8) as usize;
         Ok(&self.bytes[start..start + size as usize])
     }
@@ -124,5 +156,28 @@ mod tests {
         assert!(f.children(u64::MAX - 3).unwrap_err().contains("past the end"));
         assert!(Ogawa::open(&file(0, 16, &body)).err().unwrap().contains("not finished"));
         assert!(Ogawa::open(b"HDF5 archive....").err().unwrap().contains("Ogawa signature"));
+    }
+
+    #[test]
+    fn a_block_read_over_and_over_is_an_error() {
+        // A group whose 2,000 children are all one 1 KiB data block, read whole each time.
+        let mut body = Vec::new();
+        let data = 16 + 8 + 8 * 2000;
+        body.extend(2000u64.to_le_bytes());
+        (0..2000).for_each(|_| body.extend((data as u64 | DATA_BIT).to_le_bytes()));
+        body.extend(1024u64.to_le_bytes());
+        body.extend([7; 1024]);
+        let bytes = file(0xff, 16, &body);
+        let (f, root) = Ogawa::open(&bytes).unwrap();
+        let mut result = Ok(&[][..]);
+        for child in f.children(root).unwrap() {
+            let Node::Data(at) = child else { unreachable!() };
+            result = f.data(at);
+            if result.is_err() {
+                break;
+            }
+        }
+        assert!(result.unwrap_err().contains("hostile"));
+        assert!(f.read.get() > 16 * bytes.len() as u64);
     }
 }
