@@ -246,8 +246,9 @@ fn damaged_files_are_errors_not_panics() {
     }
 }
 
-/// The character too: Blender's USD groom bound to the skinned head Blender exported as glTF
-/// (`character_blender.glb`, a one-bone rig), through a pipeline as a game's would run it.
+/// The character too: Blender's USD (and Alembic) groom bound to the skinned head Blender
+/// exported as glTF (`character_blender.glb`, a one-bone rig), through a pipeline as a game's
+/// would run it.
 /// Every strand is bound to the triangle nearest its root, found here by brute force over every
 /// triangle of the glTF's mesh, and its root lies on that triangle within the sphere's
 /// tessellation.
@@ -260,9 +261,10 @@ fn a_blender_groom_binds_to_blenders_skinned_head() {
     std::fs::write(
         &pipeline,
         format!(
-            r#"(output: "bundle", jobs: [Strands(id: "head", input: "{}", scalp: Some("{}"))])"#,
+            r#"(output: "bundle", jobs: [Strands(id: "head", input: "{}", scalp: Some("{glb}")), Strands(id: "head_abc", input: "{}", scalp: Some("{glb}"))])"#,
             data("groom_blender.usdc").display(),
-            data("character_blender.glb").display()
+            data("groom_blender.abc").display(),
+            glb = data("character_blender.glb").display()
         ),
     )
     .unwrap();
@@ -272,6 +274,9 @@ fn a_blender_groom_binds_to_blenders_skinned_head() {
     let scalp = hikage_bundle::Scalp::read(&bundle.read_mesh("head.scalp").unwrap()).unwrap();
     let hair = load("groom_blender.usdc");
     assert_eq!(bindings.len(), 48);
+    // Blender's Alembic export of the same groom binds the same: byte for byte.
+    assert_eq!(bundle.read_mesh("head_abc.binding").unwrap(), bundle.read_mesh("head.binding").unwrap());
+    assert_eq!(bundle.read_mesh("head_abc.scalp").unwrap(), bundle.read_mesh("head.scalp").unwrap());
     let head = hikage_bake::mesh::gltf::load_skinned(&data("character_blender.glb"), Default::default()).unwrap();
     let sub = |a: [f32; 3], b: [f32; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
     let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
