@@ -1,8 +1,8 @@
 //! Grooms from USD and Alembic against the same groom from `.hair` (issue 52): 100,000 generated
 //! strands of 22 points with per-point widths, written as a `.hair` file, as a binary USD `.usdc`
 //! (`BasisCurves`, vertex widths, through the `openusd` crate's writer) and as an Alembic `.abc`
-//! (one `AbcGeom_Curve_v2` object with `P`, `nVertices` and `width`, laid out as Alembic's Ogawa
-//! writer lays it out, by the small writer below), each baked by a
+//! (one `AbcGeom_Curve_v2` object with `P`, `nVertices` and `width`, by
+//! [`hikage_devkit::alembic`]), each baked by a
 //! `Strands` job in a process of its own under `/usr/bin/time` (wall time, peak RSS), best of
 //! 3; then the read alone (`StrandsJob::load`) in this process, best of 3.
 
@@ -35,85 +35,13 @@ fn write_usdc(s: &Strands, path: &Path) {
     stage.root_layer().export(path.to_str().expect("a UTF-8 path")).expect("the stage is written");
 }
 
-/// `s` as an Ogawa Alembic archive: the top object holding one curves object whose `.geom`
-/// holds `P`, `nVertices` and a vertex-scope `width`, each one sample at time 0.
+/// `s` as an Alembic archive: one curves object with `P`, `nVertices` and a vertex `width`.
 fn write_abc(s: &Strands, path: &Path) {
-    const DATA: u64 = 1 << 63;
-    let mut out = b"Ogawa\xff\x00\x01".to_vec();
-    out.extend([0; 8]);
-    let data = |out: &mut Vec<u8>, bytes: &[u8]| {
-        let at = out.len() as u64;
-        out.extend((bytes.len() as u64).to_le_bytes());
-        out.extend(bytes);
-        at | DATA
-    };
-    let group = |out: &mut Vec<u8>, children: &[u64]| {
-        let at = out.len() as u64;
-        out.extend((children.len() as u64).to_le_bytes());
-        children.iter().for_each(|c| out.extend(c.to_le_bytes()));
-        at
-    };
-    // A sample: a 16-byte digest (unchecked by readers), then the values.
-    let sample = |values: Vec<u8>| [vec![0; 16], values].concat();
-    // A property header: kind (1 scalar, 2 array, 0 compound), 4-byte sizes, inline metadata.
-    let header = |kind: u32, pod: u32, extent: u32, name: &str, meta: &str| {
-        let h = if kind == 0 { 8 | 0xff << 20 } else { kind | 8 | pod << 4 | 0x800 | extent << 12 | 0xff << 20 };
-        let mut b = h.to_le_bytes().to_vec();
-        if kind != 0 {
-            b.extend(1u32.to_le_bytes());
-        }
-        b.extend((name.len() as u32).to_le_bytes());
-        b.extend(name.as_bytes());
-        b.extend((meta.len() as u32).to_le_bytes());
-        b.extend(meta.as_bytes());
-        b
-    };
-    let points: Vec<u8> = s.points.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
-    let counts: Vec<u8> = s.segments.iter().flat_map(|&n| (n as i32 + 1).to_le_bytes()).collect();
+    use hikage_devkit::alembic::{Prop, archive, curves};
+    let counts: Vec<i32> = s.segments.iter().map(|&n| n as i32 + 1).collect();
     let widths = s.thickness.clone().unwrap_or_else(|| vec![s.default_thickness; s.points.len()]);
-    let widths: Vec<u8> = widths.iter().flat_map(|v| v.to_le_bytes()).collect();
-    let mut geom = Vec::new();
-    let mut headers = Vec::new();
-    for (name, pod, extent, values, meta) in [
-        ("P", 10, 3, points, "geoScope=vtx;interpretation=point"),
-        ("nVertices", 6, 1, counts, ""),
-        ("width", 10, 1, widths, "geoScope=vtx;isGeomParam=true"),
-    ] {
-        let (d, dims) = (data(&mut out, &sample(values)), data(&mut out, &[]));
-        geom.push(group(&mut out, &[d, dims]));
-        headers.extend(header(2, pod, extent, name, meta));
-    }
-    geom.push(data(&mut out, &headers));
-    let geom = group(&mut out, &geom);
-    let geom_header = header(0, 0, 0, ".geom", "schema=AbcGeom_Curve_v2");
-    let props = [geom, data(&mut out, &geom_header)];
-    let props = group(&mut out, &props);
-    let no_children = data(&mut out, &[0; 32]);
-    let curves = group(&mut out, &[props, no_children]);
-    let meta = "schema=AbcGeom_Curve_v2";
-    let mut child = (5u32).to_le_bytes().to_vec();
-    child.extend(b"groom");
-    child.push(0xff);
-    child.extend((meta.len() as u32).to_le_bytes());
-    child.extend(meta.as_bytes());
-    child.extend([0; 32]);
-    let top = [0, curves, data(&mut out, &child)];
-    let top = group(&mut out, &top);
-    let root = [
-        data(&mut out, &0i32.to_le_bytes()),
-        data(&mut out, &10803i32.to_le_bytes()),
-        top,
-        data(&mut out, &[]),
-        data(
-            &mut out,
-            &[[1u32.to_le_bytes().as_slice(), &1f64.to_le_bytes(), &1u32.to_le_bytes(), &0f64.to_le_bytes()].concat()]
-                .concat(),
-        ),
-        data(&mut out, &[]),
-    ];
-    let root = group(&mut out, &root);
-    out[8..16].copy_from_slice(&root.to_le_bytes());
-    std::fs::write(path, out).expect("the .abc file");
+    let width = Prop::floats("width", 1, "geoScope=vtx;isGeomParam=true", &widths);
+    std::fs::write(path, archive(&[curves("groom", &s.points, &counts, vec![width])])).expect("the .abc file");
 }
 
 pub fn run() {

@@ -1,7 +1,8 @@
 //! Alembic grooms: Blender 5.0's export of the groom in `data/grooms/` (written by
-//! `data/grooms/make_grooms.py`) reads as the `.hair` file's strands, and every mistake in an
-//! archive (the export edited at the place that holds the mistake) is an error naming the file
-//! and the object, never a panic.
+//! `data/grooms/make_grooms.py`) reads as the `.hair` file's strands; Unreal's per-strand groom
+//! attributes, which Blender does not write, are read from an archive laid out by
+//! hikage-devkit; and every mistake in an archive (the export edited at the place that holds the
+//! mistake) is an error naming the file and the object, never a panic.
 
 use std::path::{Path, PathBuf};
 
@@ -130,4 +131,65 @@ fn damaged_archives_are_errors_not_panics() {
     }
     // Every truncation is an error; the overwrites land in bytes that matter often enough.
     assert!(errors >= bytes.len() / 7, "{errors} errors in {} cases", cases.len());
+}
+
+/// Unreal's groom attributes per strand in `.arbGeomParams`, as Houdini's and Ornatrix's
+/// exports hold them (Blender's exporter drops curve attributes, and no Alembic library is
+/// packaged here, so hikage-devkit's writer lays the archive out): `groom_width` indexed, one a
+/// strand, before the plain `width`; per-point `groom_color`; `groom_guide` and
+/// `groom_group_id` per strand; under an `Xform` that moves the groom 1 up.
+#[test]
+fn unreals_groom_attributes_per_strand() {
+    use hikage_devkit::alembic::{Object, Prop, archive, curves};
+    let points: Vec<[f32; 3]> = (0..9).map(|i| [(i / 3) as f32, (i % 3) as f32 * 0.1, 0.0]).collect();
+    let colors: Vec<f32> = (0..9).flat_map(|i| [i as f32 / 9.0, 0.5, 0.25]).collect();
+    let param = |scope: &str| format!("geoScope={scope};isGeomParam=true");
+    let arb = Prop::compound(
+        ".arbGeomParams",
+        "",
+        vec![
+            Prop::compound(
+                "groom_width",
+                &param("uni"),
+                vec![Prop::floats(".vals", 1, "", &[0.001, 0.002]), Prop::ints(".indices", "", &[1, 0, 0])],
+            ),
+            Prop::floats("groom_color", 3, &param("vtx"), &colors),
+            Prop::ints("groom_guide", &param("uni"), &[0, 1, 0]),
+            Prop::ints("groom_group_id", &param("uni"), &[4, 4, 5]),
+        ],
+    );
+    let width = Prop::floats("width", 1, &param("vtx"), &[0.5; 9]);
+    let groom = curves("hair", &points, &[3, 3, 3], vec![width, arb]);
+    let character = Object {
+        name: "character".into(),
+        meta: "schema=AbcGeom_Xform_v3".into(),
+        props: vec![Prop::translate([0.0, 1.0, 0.0])],
+        children: vec![groom],
+    };
+    let path = scratch("unreal.abc", &archive(&[character]));
+
+    let s = load(&path).unwrap();
+    // The guide (strand 1) is left out; the others are moved 1 up.
+    assert_eq!(s.segments, [2, 2]);
+    let want: Vec<[f32; 3]> = [0, 1, 2, 6, 7, 8].iter().map(|&i| [points[i][0], points[i][1] + 1.0, 0.0]).collect();
+    assert_eq!(s.points, want);
+    // groom_width, not width: strand 0 takes value 1, strand 2 value 0.
+    assert_eq!(s.thickness.as_deref(), Some(&[0.002, 0.002, 0.002, 0.001, 0.001, 0.001][..]));
+    let want_colors: Vec<[f32; 3]> = [0, 1, 2, 6, 7, 8].iter().map(|&i| [i as f32 / 9.0, 0.5, 0.25]).collect();
+    assert_eq!(s.color.as_deref(), Some(&want_colors[..]));
+    // One group alone.
+    let mut job = StrandsJob::new("groom", path.clone());
+    job.options.group = Some(5);
+    assert_eq!(job.load(&path).unwrap().points, want[3..]);
+    job.options.group = Some(4);
+    assert_eq!(job.load(&path).unwrap().points, want[..3]);
+
+    // A guide flag for each of two strands where there are three is named.
+    let short = Prop::compound(".arbGeomParams", "", vec![Prop::ints("groom_guide", &param("uni"), &[0, 1])]);
+    let path = scratch("short_guides.abc", &archive(&[curves("hair", &points, &[3, 3, 3], vec![short])]));
+    let e = load(&path).unwrap_err();
+    assert!(
+        e.contains("short_guides.abc") && e.contains("object /hair") && e.contains("groom_guide holds 2 values"),
+        "{e}"
+    );
 }

@@ -7,9 +7,12 @@
 //! - [`fuzzing`]: one entry point per reader of untrusted input, for `fuzz/` and the test that
 //!   replays its regressions.
 //! - [`tile_tables`]: manifests of maps baked in tiles at sizes no test bakes.
+//! - [`alembic`]: a small Alembic writer, for what no tool here writes (Unreal's groom
+//!   attributes, indexed values) and for a groom large enough to measure.
 //!
 //! `cargo run --release -p hikage-devkit --example make_data` rebuilds `data/` byte for byte.
 
+pub mod alembic;
 pub mod brute_force;
 pub mod fuzzing;
 pub mod synth;
