@@ -421,6 +421,11 @@ impl Baker for StrandsJob {
         {
             return Err(format!("units must be a finite number of metres above 0, found {u}"));
         }
+        if let Some(t) = self.options.time
+            && !t.is_finite()
+        {
+            return Err(format!("time must be a finite number of seconds, found {t}"));
+        }
         if !(0.0..=1.0).contains(&self.options.taper) {
             return Err(format!("taper must be in [0, 1], found {}", self.options.taper));
         }
@@ -513,5 +518,7 @@ mod tests {
         }
         job.options.color = Some([2.0, 0.0, 0.0]);
         assert!(job.check().unwrap_err().contains("color"));
+        job.options = StrandsOptions { time: Some(f64::NAN), ..Default::default() };
+        assert!(job.check().unwrap_err().contains("time must be a finite number of seconds"));
     }
 }
