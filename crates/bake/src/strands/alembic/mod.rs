@@ -187,12 +187,10 @@ impl Walk<'_, '_> {
         let n_vertices = find(geom, "nVertices")?;
         let counts = archive::integers(n_vertices, self.archive.sample(n_vertices, time)?)?;
         // Counted before the points are converted, against the limit.
-        let size = if p.pod == 11 {
-            24
-        } else if p.pod == 9 {
-            6
-        } else {
-            12
+        let size = match p.pod {
+            11 => 24,
+            9 => 6,
+            _ => 12,
         };
         let counts = curves::check_counts(&counts, (p_bytes.len() / size) as u64, self.points, self.limits)?;
         let mut points = Vec::with_capacity(counts.iter().sum());
