@@ -62,12 +62,20 @@ pub fn ktx2(data: &[u8]) {
     let _ = hikage_bundle::ktx2_file::decode(data, path, &limits);
 }
 
+/// The strand limits the fuzz targets read under.
+const HAIR_LIMITS: hikage_bake::strands::cyhair::HairLimits =
+    hikage_bake::strands::cyhair::HairLimits { max_strands: 100_000, max_points: 1_000_000 };
+
+/// Strips of strands a reader accepted, at the file's own widths.
+fn strips(s: &hikage_bake::strands::Strands) {
+    let sets = hikage_bake::strands::strips::StripSets::from_source(s);
+    let _ = hikage_bake::strands::strips::build(s, &sets);
+}
+
 /// `.hair` bytes → [`hikage_bake::strands::cyhair::decode`], and strips of what it accepts.
 pub fn hair(data: &[u8]) {
-    let limits = hikage_bake::strands::cyhair::HairLimits { max_strands: 100_000, max_points: 1_000_000 };
-    if let Ok(s) = hikage_bake::strands::cyhair::decode(data, &limits) {
-        let sets = hikage_bake::strands::strips::StripSets::from_source(&s);
-        let _ = hikage_bake::strands::strips::build(&s, &sets);
+    if let Ok(s) = hikage_bake::strands::cyhair::decode(data, &HAIR_LIMITS) {
+        strips(&s);
     }
 }
 
@@ -76,8 +84,7 @@ pub fn obj_polylines(data: &[u8]) {
     if let Ok(text) = std::str::from_utf8(data)
         && let Ok(s) = hikage_bake::strands::obj::parse(text, 1_000_000)
     {
-        let sets = hikage_bake::strands::strips::StripSets::from_source(&s);
-        let _ = hikage_bake::strands::strips::build(&s, &sets);
+        strips(&s);
     }
 }
 
@@ -87,14 +94,12 @@ pub fn usd_groom(data: &[u8]) {
     if data.len() > 1 << 20 {
         return;
     }
-    let limits = hikage_bake::strands::cyhair::HairLimits { max_strands: 100_000, max_points: 1_000_000 };
     for name in ["groom.usda", "groom.usdc"] {
         let path = scratch().join(name);
         if std::fs::write(&path, data).is_ok()
-            && let Ok((s, _)) = hikage_bake::strands::usd::load(&path, &Default::default(), &limits)
+            && let Ok((s, _)) = hikage_bake::strands::usd::load(&path, &Default::default(), &HAIR_LIMITS)
         {
-            let sets = hikage_bake::strands::strips::StripSets::from_source(&s);
-            let _ = hikage_bake::strands::strips::build(&s, &sets);
+            strips(&s);
         }
     }
 }
@@ -105,16 +110,14 @@ pub fn alembic_groom(data: &[u8]) {
     if data.len() > 1 << 20 {
         return;
     }
-    let limits = hikage_bake::strands::cyhair::HairLimits { max_strands: 100_000, max_points: 1_000_000 };
     let path = scratch().join("groom.abc");
     if std::fs::write(&path, data).is_err() {
         return;
     }
     for time in [None, Some(1.0)] {
         let read = hikage_bake::strands::GroomRead { time, group: None };
-        if let Ok((s, _)) = hikage_bake::strands::alembic::load(&path, &read, &limits) {
-            let sets = hikage_bake::strands::strips::StripSets::from_source(&s);
-            let _ = hikage_bake::strands::strips::build(&s, &sets);
+        if let Ok((s, _)) = hikage_bake::strands::alembic::load(&path, &read, &HAIR_LIMITS) {
+            strips(&s);
         }
     }
 }
